@@ -1,0 +1,346 @@
+//! The component contract: what every block exposes to `graph` and `solve`.
+//!
+//! A block is a black box with ports. `graph` only reads [`Block::ports`] to
+//! wire blocks and assign causality; `solve` only calls the evaluation phases
+//! below, in this order, once per right-hand-side evaluation:
+//!
+//! 1. [`Block::kinematics`] — inertias publish position and velocity of their
+//!    mechanical port from their states (integral causality).
+//! 2. [`Block::effort`] — capacities and pressure sources publish the gas state
+//!    (p, T, ρ, h) at their pneumatic effort ports.
+//! 3. [`Block::signal_outputs`] — signal values (sensors, controllers).
+//! 4. [`Block::flows`] — restrictions and flow sources compute mass and energy
+//!    flows at their pneumatic flow ports from the gas states on both sides
+//!    (conductance form). Junction pressures between restrictions are solved
+//!    by `solve` around this call.
+//! 5. [`Block::forces`] — forces on mechanical nodes, including dry friction
+//!    laws that the node's stick–slip logic (Karnopp 1985) uses.
+//! 6. [`Block::derivatives`] — state derivatives from the balances that
+//!    `solve` gathered on each node.
+//!
+//! ## Sign conventions (the only place they are written)
+//! - Pneumatic port: mass flow ṁ [kg/s] and energy flow Ė [W] are positive
+//!   INTO the block. Ė is the total energy carried through the port: enthalpy
+//!   flow ṁ·h of the upstream gas plus any conduction Q_c (paper Eq. 7, 9, 10).
+//! - Mechanical translational port: position x [m], velocity v [m/s] and force
+//!   F [N] are positive in the extend direction; a force returned by a block
+//!   is the force it exerts ON the node.
+//! - Signal ports carry plain f64 values in the SI unit given in their docs.
+
+use gas::{GasModel, GasState};
+
+/// Domain and causal role of a port.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum PortKind {
+    /// Pneumatic port where the block imposes p and T (chamber, pressure source).
+    PneumaticEffort,
+    /// Pneumatic port where the block computes ṁ and Ė from the node state (restriction).
+    PneumaticFlow,
+    /// Mechanical port where the block imposes x and v (moving mass).
+    MechanicalInertia,
+    /// Mechanical port where the block computes a force (chamber piston face, friction, spring).
+    MechanicalForce,
+    /// Signal input.
+    SignalIn,
+    /// Signal output.
+    SignalOut,
+}
+
+/// The physical domain of a port; connections join ports of one domain only.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum Domain {
+    Pneumatic,
+    Mechanical,
+    Signal,
+}
+
+impl PortKind {
+    pub fn domain(self) -> Domain {
+        match self {
+            PortKind::PneumaticEffort | PortKind::PneumaticFlow => Domain::Pneumatic,
+            PortKind::MechanicalInertia | PortKind::MechanicalForce => Domain::Mechanical,
+            PortKind::SignalIn | PortKind::SignalOut => Domain::Signal,
+        }
+    }
+}
+
+impl std::fmt::Display for Domain {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(match self {
+            Domain::Pneumatic => "pneumatic",
+            Domain::Mechanical => "mechanical",
+            Domain::Signal => "signal",
+        })
+    }
+}
+
+/// A named port of a block.
+#[derive(Debug, Clone, PartialEq)]
+pub struct PortSpec {
+    pub name: &'static str,
+    pub kind: PortKind,
+    /// One line: what flows through it, with units for signals.
+    pub doc: &'static str,
+}
+
+impl PortSpec {
+    pub const fn new(name: &'static str, kind: PortKind, doc: &'static str) -> Self {
+        Self { name, kind, doc }
+    }
+}
+
+/// A continuous state of a block.
+#[derive(Debug, Clone, PartialEq)]
+pub struct StateSpec {
+    pub name: &'static str,
+    pub unit: &'static str,
+}
+
+/// A recorded output of a block (written to result files), computed after
+/// the derivatives so it may depend on them (e.g. the polytropic index).
+#[derive(Debug, Clone, PartialEq)]
+pub struct OutputSpec {
+    pub name: &'static str,
+    pub unit: &'static str,
+}
+
+/// Position and velocity of a mechanical node.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct MechState {
+    pub x: f64,
+    pub v: f64,
+}
+
+/// Mass and energy flow through a pneumatic port, positive into the block.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct PortFlow {
+    /// Mass flow [kg/s].
+    pub mdot: f64,
+    /// Energy flow [W]: ṁ·h_upstream + conduction.
+    pub edot: f64,
+}
+
+impl std::ops::AddAssign for PortFlow {
+    fn add_assign(&mut self, rhs: Self) {
+        self.mdot += rhs.mdot;
+        self.edot += rhs.edot;
+    }
+}
+
+impl std::ops::Neg for PortFlow {
+    type Output = PortFlow;
+    fn neg(self) -> PortFlow {
+        PortFlow { mdot: -self.mdot, edot: -self.edot }
+    }
+}
+
+/// Dry friction acting at a mechanical port, used by the stick–slip logic.
+///
+/// Magnitudes only: the node logic applies them against the motion (sliding)
+/// or up to the breakaway level (sticking), after Karnopp (1985).
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct DryFriction {
+    /// Sliding friction magnitude at the port's current speed |v| [N] (≥ 0).
+    pub sliding: f64,
+    /// Breakaway (static) level: the largest force held while stuck [N] (≥ 0).
+    pub breakaway: f64,
+}
+
+/// Force a block exerts on a mechanical node.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct PortForce {
+    /// Force that does not depend on the sign of motion [N], positive in the extend direction.
+    pub applied: f64,
+    /// Dry friction, if the block is a friction element.
+    pub friction: Option<DryFriction>,
+}
+
+/// Everything a block may read during one evaluation.
+///
+/// Port values are indexed per kind in declaration order: `pneumatic[i]` is
+/// the node state at the block's i-th pneumatic port (effort or flow),
+/// `mechanical[i]` the i-th mechanical port, `signals[i]` the i-th signal input.
+#[derive(Debug, Clone, Copy)]
+pub struct Ctx<'a> {
+    pub t: f64,
+    pub gas: &'a dyn GasModel,
+    pub states: &'a [f64],
+    pub pneumatic: &'a [GasState],
+    pub mechanical: &'a [MechState],
+    pub signals: &'a [f64],
+}
+
+/// What a mechanical node computed for an inertia port.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct Motion {
+    /// Acceleration [m/s²] decided by the node logic (zero while stuck or at a stop).
+    pub accel: f64,
+}
+
+/// Balances gathered by `solve` for one block, indexed like the ports.
+#[derive(Debug, Clone, Copy)]
+pub struct Balances<'a> {
+    /// Net flow into the block at each pneumatic port (meaningful at effort ports:
+    /// the sum of flows arriving from every restriction on that node).
+    pub pneumatic: &'a [PortFlow],
+    /// Motion decided for each mechanical port (meaningful at inertia ports).
+    pub mechanical: &'a [Motion],
+}
+
+/// End stops of a moving mass.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Stops {
+    /// Lower stop position [m].
+    pub lower: f64,
+    /// Upper stop position [m].
+    pub upper: f64,
+    /// Coefficient of restitution e: impact speed v becomes −e·v (0 = inelastic).
+    pub restitution: f64,
+}
+
+/// Gas stored in a capacity.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct Stored {
+    /// Mass [kg].
+    pub mass: f64,
+    /// Internal energy m·u [J].
+    pub energy: f64,
+}
+
+/// Energy exchanged by stored gas with its surroundings, other than through ports.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct Exchange {
+    /// Heat into the gas from the walls [W].
+    pub heat: f64,
+    /// Boundary work done by the gas, p·V̇ [W].
+    pub work: f64,
+}
+
+/// A discrete event a block asks for.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum EventKind {
+    /// Root function `index` of [`Block::event_functions`] changed sign.
+    Crossing(usize),
+    /// The time returned by [`Block::next_time_event`] was reached.
+    Time,
+}
+
+/// Record of one completed actuator cycle (extend then retract).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct CycleRecord {
+    /// Time of the extend command [s].
+    pub start: f64,
+    /// Extend stroke time, from the extend command to the end of stroke [s].
+    pub extend: f64,
+    /// Retract stroke time, from the retract command back to 0 [s].
+    pub retract: f64,
+    /// Whole cycle, including dwells [s].
+    pub total: f64,
+}
+
+/// What handling an event produced.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct EventOutcome {
+    /// A cycle completed at this event.
+    pub cycle: Option<CycleRecord>,
+    /// A short note for the event log ("retract commanded").
+    pub note: Option<String>,
+}
+
+/// Physical constants a block needs at initialisation.
+#[derive(Debug, Clone, Copy)]
+pub struct InitCtx<'a> {
+    pub gas: &'a dyn GasModel,
+    /// Position and velocity at each mechanical port (inertias initialised first).
+    pub mechanical: &'a [MechState],
+}
+
+/// A component of a pneumatic circuit.
+///
+/// Every method has a do-nothing default so a block implements only the
+/// phases its ports need. Methods must be pure functions of their inputs
+/// (except `on_event`, which updates discrete state) and must not panic.
+pub trait Block: std::fmt::Debug + Send + Sync {
+    /// The netlist type name ("chamber", "conductance", ...).
+    fn type_name(&self) -> &'static str;
+    /// Ports, in a fixed order.
+    fn ports(&self) -> &[PortSpec];
+    /// Continuous states.
+    fn states(&self) -> &[StateSpec] {
+        &[]
+    }
+    /// Typical magnitude of each state, for absolute tolerances.
+    fn state_scales(&self, _init: &[f64], _out: &mut [f64]) {}
+    /// Initial values of the states.
+    fn initial_states(&self, _ctx: &InitCtx, _out: &mut [f64]) {}
+    /// Phase 1: position and velocity at inertia ports.
+    fn kinematics(&self, _states: &[f64], _out: &mut [MechState]) {}
+    /// Phase 2: gas state at effort ports (entries of other ports are left untouched).
+    fn effort(&self, _ctx: &Ctx, _out: &mut [GasState]) {}
+    /// Phase 3: values of the signal outputs.
+    fn signal_outputs(&self, _ctx: &Ctx, _out: &mut [f64]) {}
+    /// True if a signal output depends on a signal input in the same instant.
+    fn feedthrough(&self) -> bool {
+        false
+    }
+    /// Phase 4: flows into the block at each pneumatic flow port.
+    fn flows(&self, _ctx: &Ctx, _out: &mut [PortFlow]) {}
+    /// Phase 5: forces on each mechanical port's node (inertia ports included).
+    fn forces(&self, _ctx: &Ctx, _out: &mut [PortForce]) {}
+    /// Mass [kg] moved by an inertia port.
+    fn inertia(&self) -> f64 {
+        0.0
+    }
+    /// End stops of an inertia port, if any.
+    fn stops(&self) -> Option<Stops> {
+        None
+    }
+    /// Overwrite position and velocity in the states of an inertia after an
+    /// impact, a stop or a stick event decided by the node logic.
+    fn reset_motion(&self, _states: &mut [f64], _motion: MechState) {}
+    /// Gas mass and internal energy stored in the block, for balance checks.
+    fn stored(&self, _ctx: &Ctx) -> Option<Stored> {
+        None
+    }
+    /// Heat received and boundary work done by the stored gas, for balance checks.
+    fn exchange(&self, _ctx: &Ctx, _balances: &Balances) -> Exchange {
+        Exchange::default()
+    }
+    /// Phase 6: time derivatives of the states.
+    fn derivatives(&self, _ctx: &Ctx, _balances: &Balances, _out: &mut [f64]) {}
+    /// Recorded outputs (besides signal outputs).
+    fn outputs(&self) -> &[OutputSpec] {
+        &[]
+    }
+    /// Values of the recorded outputs, given the derivatives just computed.
+    /// `None` means undefined at this instant (e.g. n when ρ̇ = 0).
+    fn record(&self, _ctx: &Ctx, _balances: &Balances, _derivs: &[f64], _out: &mut [Option<f64>]) {}
+    /// Number of root functions this block watches.
+    fn n_event_functions(&self) -> usize {
+        0
+    }
+    /// Root functions; an event fires when one changes sign.
+    fn event_functions(&self, _ctx: &Ctx, _out: &mut [f64]) {}
+    /// Next time-triggered event strictly after `t`, if any.
+    fn next_time_event(&self, _t: f64) -> Option<f64> {
+        None
+    }
+    /// Handle an event: update discrete state. `ctx` is the state at the event.
+    fn on_event(&mut self, _event: EventKind, _ctx: &Ctx) -> EventOutcome {
+        EventOutcome::default()
+    }
+    /// Whether the block's discrete state asks the simulation to stop.
+    fn finished(&self) -> bool {
+        false
+    }
+}
+
+/// Number of ports of one kind.
+pub fn count_ports(ports: &[PortSpec], pred: impl Fn(PortKind) -> bool) -> usize {
+    ports.iter().filter(|p| pred(p.kind)).count()
+}
+
+/// Helper for blocks with one state vector that must stay physical.
+pub fn is_finite_all(xs: &[f64]) -> bool {
+    xs.iter().all(|x| x.is_finite())
+}

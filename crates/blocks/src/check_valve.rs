@@ -1,0 +1,138 @@
+//! Check valve: a one-way ISO 6358 restriction with a cracking pressure.
+//!
+//! # Ports
+//! - `a` (inlet), `b` (outlet) — pneumatic, flow. Flow passes only from a to b.
+//!
+//! # Parameters (defaults in brackets)
+//! - `C` [m³/(s Pa), required], `b` [-, required], `m` [0.5], `b_lam` [0.999],
+//!   `T_ref`, `rho_ref`: the ISO 6358 characteristic of the open valve.
+//! - `cracking_pressure` [Pa, 0]: pressure difference p_a − p_b at which the
+//!   valve starts to open.
+//! - `opening_range` [Pa, 1000 Pa]: further pressure difference over which it
+//!   opens fully.
+//!
+//! # Equations
+//! Opening s = clamp((p_a − p_b − p_crack)/Δp_open, 0, 1);
+//! ṁ = s·ṁ_ISO(p_a, T_a → p_b) (Eq. 33–35). The linear opening keeps the flow
+//! Lipschitz continuous in the pressures (no chattering at closing).
+//!
+//! # Assumptions
+//! Massless poppet (opening follows Δp instantly); no reverse leakage.
+
+use crate::block::*;
+use crate::conductance::{characteristic, restriction_flow};
+use crate::iso6358::FlowCharacteristic;
+use crate::params::{ParamSpec, Params, Range};
+use units::dim;
+
+pub const PARAMS: &[ParamSpec] = &[
+    ParamSpec::quantity("C", dim::CONDUCTANCE, None, Range::Positive, "L/min/bar", "sonic conductance when open"),
+    ParamSpec::quantity("b", dim::DIMENSIONLESS, None, Range::OpenUnit, "", "critical pressure ratio"),
+    ParamSpec::quantity("m", dim::DIMENSIONLESS, Some(0.5), Range::Closed(0.1, 1.0), "", "subsonic index"),
+    ParamSpec::quantity("b_lam", dim::DIMENSIONLESS, Some(0.999), Range::OpenUnit, "", "laminar pressure ratio"),
+    ParamSpec::quantity("T_ref", dim::TEMPERATURE, Some(293.15), Range::Positive, "K", "reference temperature"),
+    ParamSpec::quantity("rho_ref", dim::DENSITY, Some(1.185), Range::Positive, "kg/m3", "reference density"),
+    ParamSpec::quantity("cracking_pressure", dim::PRESSURE, Some(0.0), Range::NonNegative, "bar", "opening pressure difference"),
+    ParamSpec::quantity("opening_range", dim::PRESSURE, Some(1000.0), Range::Positive, "bar", "pressure rise from cracking to fully open"),
+];
+const PORTS: &[PortSpec] = &[
+    PortSpec::new("a", PortKind::PneumaticFlow, "inlet"),
+    PortSpec::new("b", PortKind::PneumaticFlow, "outlet"),
+];
+const OUTPUTS: &[OutputSpec] = &[OutputSpec { name: "mdot", unit: "kg/s" }];
+
+/// One-way element shared by the check valve and the speed-control valve.
+#[derive(Debug, Clone, PartialEq)]
+pub struct OneWay {
+    pub flow: FlowCharacteristic,
+    pub cracking_pressure: f64,
+    pub opening_range: f64,
+}
+
+impl OneWay {
+    /// Opening fraction for a pressure difference p_a − p_b.
+    pub fn opening(&self, dp: f64) -> f64 {
+        ((dp - self.cracking_pressure) / self.opening_range).clamp(0.0, 1.0)
+    }
+    /// Flow into the element at port a (from a to b).
+    pub fn flow(&self, a: &gas::GasState, b: &gas::GasState) -> PortFlow {
+        restriction_flow(&self.flow, self.opening(a.p - b.p), a, b, 0.0)
+    }
+}
+
+#[derive(Debug, Clone, PartialEq)]
+pub struct CheckValve {
+    pub valve: OneWay,
+}
+
+impl CheckValve {
+    pub fn from_params(p: &Params) -> Result<Self, crate::BlockError> {
+        Ok(CheckValve {
+            valve: OneWay {
+                flow: characteristic(p, "C", "b")?,
+                cracking_pressure: p.get("cracking_pressure"),
+                opening_range: p.get("opening_range"),
+            },
+        })
+    }
+}
+
+impl Block for CheckValve {
+    fn type_name(&self) -> &'static str {
+        "check_valve"
+    }
+    fn ports(&self) -> &[PortSpec] {
+        PORTS
+    }
+    fn flows(&self, ctx: &Ctx, out: &mut [PortFlow]) {
+        let f = self.valve.flow(&ctx.pneumatic[0], &ctx.pneumatic[1]);
+        out[0] = f;
+        out[1] = -f;
+    }
+    fn outputs(&self) -> &[OutputSpec] {
+        OUTPUTS
+    }
+    fn record(&self, ctx: &Ctx, _b: &Balances, _d: &[f64], out: &mut [Option<f64>]) {
+        out[0] = Some(self.valve.flow(&ctx.pneumatic[0], &ctx.pneumatic[1]).mdot);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use gas::GasModel;
+
+    fn valve(crack: f64) -> OneWay {
+        OneWay { flow: FlowCharacteristic::new(1e-8, 0.3).unwrap(), cracking_pressure: crack, opening_range: 1000.0 }
+    }
+
+    #[test]
+    fn blocks_reverse_flow_and_opens_above_cracking() {
+        let gas = gas::IdealGas::air();
+        let v = valve(20_000.0);
+        let lo = gas.state_pt(2e5, 293.0);
+        assert_eq!(v.flow(&lo, &gas.state_pt(5e5, 293.0)).mdot, 0.0); // reverse
+        assert_eq!(v.flow(&gas.state_pt(2.19e5, 293.0), &lo).mdot, 0.0); // below cracking
+        let open = v.flow(&gas.state_pt(3e5, 293.0), &lo).mdot;
+        let free = v.flow.mass_flow(3e5, 293.0, 2e5, 293.0);
+        assert!((open - free).abs() < 1e-15 && open > 0.0);
+        // partly open inside the opening range
+        let part = v.flow(&gas.state_pt(2.205e5, 293.0), &lo).mdot;
+        let full = v.flow.mass_flow(2.205e5, 293.0, 2e5, 293.0);
+        assert!((part - 0.5 * full).abs() < 1e-9 * full);
+    }
+
+    #[test]
+    fn flow_is_continuous_through_cracking() {
+        let gas = gas::IdealGas::air();
+        let v = valve(10_000.0);
+        let lo = gas.state_pt(2e5, 293.0);
+        let mut prev = 0.0;
+        for i in 0..2000 {
+            let pa = 2.09e5 + i as f64 * 1.0;
+            let f = v.flow(&gas.state_pt(pa, 293.0), &lo).mdot;
+            assert!(f >= prev && f - prev < 2e-5 * 1e-8 * 1.185 * 2.2e5, "jump at {pa}");
+            prev = f;
+        }
+    }
+}

@@ -1,0 +1,135 @@
+//! Conductance: a fixed pneumatic restriction characterised after ISO 6358
+//! (orifice, fitting, throttle, one path of a valve).
+//!
+//! # Ports
+//! - `a`, `b` — pneumatic, flow (conductance form: flows from the pressures).
+//!
+//! # Parameters (defaults in brackets)
+//! - `C` [m³/(s Pa), required]: sonic conductance (e.g. "13.2 L/min/bar").
+//! - `b` [-, required]: critical pressure ratio, in (0, 1).
+//! - `m` [-, 0.5]: ISO 6358-1:2013 subsonic index (0.5 gives paper Eq. 33).
+//! - `b_lam` [-, 0.999]: pressure ratio above which the flow is laminar
+//!   (linear in Δp), which keeps the flow Lipschitz as r → 1.
+//! - `T_ref` [K, 293.15 K], `rho_ref` [kg/m³, 1.185]: ISO 6358 ANR reference.
+//! - `heat_conductance` [W/K, 0]: port conduction Q_c = G·(T_a − T_b) carried
+//!   with the flow (paper Eq. 7, 9/10; the paper omits it in first approximation).
+//!
+//! # Equations
+//! ṁ = C·ρ_ref·p_up·K_T·ω(r) with K_T = (T_ref/T_up)^½, r = p_down/p_up
+//! (paper Eq. 33–35, see [`crate::iso6358`]). Flow runs from the higher to the
+//! lower pressure; the energy flow is ṁ·h_up + Q_c (isenthalpic throttling:
+//! the gas enters the downstream volume with the upstream enthalpy).
+//!
+//! # Assumptions
+//! Quasi-steady flow (no inertia of the gas in the passage); the ISO
+//! characteristic measured at steady flow holds in transients (but see paper
+//! Eq. 36: C identified from a discharge can be smaller).
+
+use crate::block::*;
+use crate::iso6358::FlowCharacteristic;
+use crate::params::{ParamSpec, Params, Range};
+use gas::GasState;
+use units::dim;
+
+pub const PARAMS: &[ParamSpec] = &[
+    ParamSpec::quantity("C", dim::CONDUCTANCE, None, Range::Positive, "L/min/bar", "sonic conductance"),
+    ParamSpec::quantity("b", dim::DIMENSIONLESS, None, Range::OpenUnit, "", "critical pressure ratio"),
+    ParamSpec::quantity("m", dim::DIMENSIONLESS, Some(0.5), Range::Closed(0.1, 1.0), "", "subsonic index (ISO 6358-1:2013)"),
+    ParamSpec::quantity("b_lam", dim::DIMENSIONLESS, Some(0.999), Range::OpenUnit, "", "laminar pressure ratio"),
+    ParamSpec::quantity("T_ref", dim::TEMPERATURE, Some(293.15), Range::Positive, "K", "reference temperature"),
+    ParamSpec::quantity("rho_ref", dim::DENSITY, Some(1.185), Range::Positive, "kg/m3", "reference density"),
+    ParamSpec::quantity("heat_conductance", dim::HEAT_CONDUCTANCE, Some(0.0), Range::NonNegative, "W/K", "port conduction G, Q_c = G (T_a - T_b)"),
+];
+const PORTS: &[PortSpec] = &[
+    PortSpec::new("a", PortKind::PneumaticFlow, "side a"),
+    PortSpec::new("b", PortKind::PneumaticFlow, "side b"),
+];
+const OUTPUTS: &[OutputSpec] = &[OutputSpec { name: "mdot", unit: "kg/s" }];
+
+/// Build a flow characteristic from the standard parameter names with a prefix ("" or "check_").
+pub fn characteristic(p: &Params, c: &str, b: &str) -> Result<FlowCharacteristic, crate::BlockError> {
+    Ok(FlowCharacteristic::new(p.get(c), p.get(b))?
+        .with_subsonic_index(p.get("m"))?
+        .with_laminar_ratio(p.get("b_lam"))?
+        .with_reference(p.get("T_ref"), p.get("rho_ref"))?)
+}
+
+/// Flow from side a to side b of a restriction with an opening factor in [0, 1].
+///
+/// Returns the flow INTO the restriction at port a; the flow at port b is its negative.
+pub fn restriction_flow(fc: &FlowCharacteristic, opening: f64, a: &GasState, b: &GasState, g_heat: f64) -> PortFlow {
+    if opening <= 0.0 {
+        return PortFlow { mdot: 0.0, edot: g_heat * (a.t - b.t) };
+    }
+    let mdot = opening * fc.mass_flow(a.p, a.t, b.p, b.t);
+    let h_up = if mdot >= 0.0 { a.h } else { b.h };
+    PortFlow { mdot, edot: mdot * h_up + g_heat * (a.t - b.t) }
+}
+
+#[derive(Debug, Clone, PartialEq)]
+pub struct Conductance {
+    pub flow: FlowCharacteristic,
+    pub heat_conductance: f64,
+}
+
+impl Conductance {
+    pub fn from_params(p: &Params) -> Result<Self, crate::BlockError> {
+        Ok(Conductance { flow: characteristic(p, "C", "b")?, heat_conductance: p.get("heat_conductance") })
+    }
+}
+
+impl Block for Conductance {
+    fn type_name(&self) -> &'static str {
+        "conductance"
+    }
+    fn ports(&self) -> &[PortSpec] {
+        PORTS
+    }
+    fn flows(&self, ctx: &Ctx, out: &mut [PortFlow]) {
+        let f = restriction_flow(&self.flow, 1.0, &ctx.pneumatic[0], &ctx.pneumatic[1], self.heat_conductance);
+        out[0] = f;
+        out[1] = -f;
+    }
+    fn outputs(&self) -> &[OutputSpec] {
+        OUTPUTS
+    }
+    fn record(&self, ctx: &Ctx, _b: &Balances, _d: &[f64], out: &mut [Option<f64>]) {
+        out[0] = Some(self.flow.mass_flow(ctx.pneumatic[0].p, ctx.pneumatic[0].t, ctx.pneumatic[1].p, ctx.pneumatic[1].t));
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use gas::GasModel;
+
+    #[test]
+    fn energy_flow_carries_upstream_enthalpy_both_ways() {
+        let gas = gas::IdealGas::air();
+        let c = Conductance { flow: FlowCharacteristic::new(1e-8, 0.3).unwrap(), heat_conductance: 0.0 };
+        let hi = gas.state_pt(4e5, 320.0);
+        let lo = gas.state_pt(1e5, 280.0);
+        let ctx = Ctx { t: 0.0, gas: &gas, states: &[], pneumatic: &[hi, lo], mechanical: &[], signals: &[] };
+        let mut out = [PortFlow::default(); 2];
+        c.flows(&ctx, &mut out);
+        assert!(out[0].mdot > 0.0 && (out[0].mdot + out[1].mdot).abs() < 1e-18);
+        assert!((out[0].edot / out[0].mdot - hi.h).abs() < 1e-6);
+        let ctx = Ctx { pneumatic: &[lo, hi], ..ctx };
+        c.flows(&ctx, &mut out);
+        assert!(out[0].mdot < 0.0);
+        assert!((out[0].edot / out[0].mdot - hi.h).abs() < 1e-6);
+    }
+
+    #[test]
+    fn conduction_flows_from_hot_to_cold_without_mass_flow() {
+        let gas = gas::IdealGas::air();
+        let c = Conductance { flow: FlowCharacteristic::new(1e-8, 0.3).unwrap(), heat_conductance: 0.5 };
+        let a = gas.state_pt(2e5, 330.0);
+        let b = gas.state_pt(2e5, 300.0);
+        let ctx = Ctx { t: 0.0, gas: &gas, states: &[], pneumatic: &[a, b], mechanical: &[], signals: &[] };
+        let mut out = [PortFlow::default(); 2];
+        c.flows(&ctx, &mut out);
+        assert_eq!(out[0].mdot, 0.0);
+        assert!((out[0].edot - 15.0).abs() < 1e-9 && (out[1].edot + 15.0).abs() < 1e-9);
+    }
+}

@@ -1,0 +1,74 @@
+//! Pressure source: a reservoir of fixed pressure and temperature (supply, or
+//! the atmosphere/exhaust).
+//!
+//! # Ports
+//! - `port` — pneumatic, effort: imposes p and T.
+//!
+//! # Parameters
+//! - type `pressure_source`: `p` [Pa, required], `T` [K, 293.15 K].
+//! - type `atmosphere`: `p` [Pa, 101 325 Pa], `T` [K, 293.15 K].
+//!
+//! # Equations
+//! The port state is (p, T, ρ(p, T), h(ρ, T)) from the circuit's gas model.
+//! Gas flowing out of the source carries that enthalpy; gas flowing in
+//! disappears (infinite capacity). The paper assumes constant supply and
+//! ambient conditions (§2.1); a finite supply line is composed from a
+//! conductance and a chamber.
+
+use crate::block::*;
+use crate::params::{ParamSpec, Params, Range};
+use gas::GasState;
+use units::dim;
+
+pub const PARAMS: &[ParamSpec] = &[
+    ParamSpec::quantity("p", dim::PRESSURE, None, Range::Positive, "bar", "absolute pressure"),
+    ParamSpec::quantity("T", dim::TEMPERATURE, Some(293.15), Range::Positive, "K", "temperature"),
+];
+pub const ATMOSPHERE_PARAMS: &[ParamSpec] = &[
+    ParamSpec::quantity("p", dim::PRESSURE, Some(101_325.0), Range::Positive, "bar", "ambient pressure"),
+    ParamSpec::quantity("T", dim::TEMPERATURE, Some(293.15), Range::Positive, "K", "ambient temperature"),
+];
+const PORTS: &[PortSpec] = &[PortSpec::new("port", PortKind::PneumaticEffort, "gas at the source state")];
+
+#[derive(Debug, Clone, PartialEq)]
+pub struct PressureSource {
+    pub p: f64,
+    pub t: f64,
+    pub name: &'static str,
+}
+
+impl PressureSource {
+    pub fn from_params(params: &Params, name: &'static str) -> Result<Self, crate::BlockError> {
+        Ok(PressureSource { p: params.get("p"), t: params.get("T"), name })
+    }
+}
+
+impl Block for PressureSource {
+    fn type_name(&self) -> &'static str {
+        self.name
+    }
+    fn ports(&self) -> &[PortSpec] {
+        PORTS
+    }
+    fn effort(&self, ctx: &Ctx, out: &mut [GasState]) {
+        out[0] = ctx.gas.state_pt(self.p, self.t);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use gas::GasModel;
+
+    #[test]
+    fn publishes_its_state() {
+        let gas = gas::IdealGas::air();
+        let s = PressureSource { p: 4e5, t: 292.0, name: "pressure_source" };
+        let ctx = Ctx { t: 0.0, gas: &gas, states: &[], pneumatic: &[], mechanical: &[], signals: &[] };
+        let mut out = [GasState { p: 0.0, t: 0.0, rho: 0.0, h: 0.0 }];
+        s.effort(&ctx, &mut out);
+        assert_eq!(out[0].p, 4e5);
+        assert!((out[0].rho - 4e5 / (287.05 * 292.0)).abs() < 1e-12);
+        assert!((out[0].h - gas.enthalpy(out[0].rho, 292.0)).abs() < 1e-9);
+    }
+}

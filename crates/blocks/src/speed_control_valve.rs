@@ -1,0 +1,124 @@
+//! Speed-control valve (one-way flow control): a throttle in parallel with a
+//! check valve. Free flow from `a` to `b`, throttled flow from `b` to `a`.
+//!
+//! ```text
+//!   a ──┬──[ throttle C, b ]──┬── b
+//!       └──[ check a → b   ]──┘
+//! ```
+//! In a meter-out circuit `b` faces the cylinder: air enters the chamber
+//! freely through the check valve and leaves it through the throttle.
+//!
+//! # Ports
+//! - `a`, `b` — pneumatic, flow.
+//!
+//! # Parameters (defaults in brackets)
+//! - `C` [m³/(s Pa), required], `b` [-, required]: throttle (paper Table 1
+//!   gives C per switch position, b = 0.3).
+//! - `check_C` [m³/(s Pa), required], `check_b` [-, required]: check valve when open.
+//! - `cracking_pressure` [Pa, 0], `opening_range` [Pa, 1000 Pa]: check valve opening.
+//! - `m` [0.5], `b_lam` [0.999], `T_ref` [293.15 K], `rho_ref` [1.185 kg/m³]:
+//!   shared by both paths.
+//!
+//! # Equations
+//! ṁ_a→b = ṁ_ISO,throttle(a, b) + s(p_a − p_b)·ṁ_ISO,check(a → b), each after
+//! paper Eq. 33–35; energy flow with the upstream enthalpy.
+
+use crate::block::*;
+use crate::check_valve::OneWay;
+use crate::conductance::{characteristic, restriction_flow};
+use crate::iso6358::FlowCharacteristic;
+use crate::params::{ParamSpec, Params, Range};
+use units::dim;
+
+pub const PARAMS: &[ParamSpec] = &[
+    ParamSpec::quantity("C", dim::CONDUCTANCE, None, Range::Positive, "L/min/bar", "throttle sonic conductance"),
+    ParamSpec::quantity("b", dim::DIMENSIONLESS, None, Range::OpenUnit, "", "throttle critical pressure ratio"),
+    ParamSpec::quantity("check_C", dim::CONDUCTANCE, None, Range::Positive, "L/min/bar", "check valve sonic conductance"),
+    ParamSpec::quantity("check_b", dim::DIMENSIONLESS, None, Range::OpenUnit, "", "check valve critical pressure ratio"),
+    ParamSpec::quantity("cracking_pressure", dim::PRESSURE, Some(0.0), Range::NonNegative, "bar", "check valve opening pressure difference"),
+    ParamSpec::quantity("opening_range", dim::PRESSURE, Some(1000.0), Range::Positive, "bar", "check valve: pressure rise to fully open"),
+    ParamSpec::quantity("m", dim::DIMENSIONLESS, Some(0.5), Range::Closed(0.1, 1.0), "", "subsonic index"),
+    ParamSpec::quantity("b_lam", dim::DIMENSIONLESS, Some(0.999), Range::OpenUnit, "", "laminar pressure ratio"),
+    ParamSpec::quantity("T_ref", dim::TEMPERATURE, Some(293.15), Range::Positive, "K", "reference temperature"),
+    ParamSpec::quantity("rho_ref", dim::DENSITY, Some(1.185), Range::Positive, "kg/m3", "reference density"),
+];
+const PORTS: &[PortSpec] = &[
+    PortSpec::new("a", PortKind::PneumaticFlow, "free-flow inlet (valve side in meter-out)"),
+    PortSpec::new("b", PortKind::PneumaticFlow, "free-flow outlet (cylinder side in meter-out)"),
+];
+const OUTPUTS: &[OutputSpec] = &[
+    OutputSpec { name: "mdot", unit: "kg/s" },
+    OutputSpec { name: "mdot_throttle", unit: "kg/s" },
+    OutputSpec { name: "mdot_check", unit: "kg/s" },
+];
+
+#[derive(Debug, Clone, PartialEq)]
+pub struct SpeedControlValve {
+    pub throttle: FlowCharacteristic,
+    pub check: OneWay,
+}
+
+impl SpeedControlValve {
+    pub fn from_params(p: &Params) -> Result<Self, crate::BlockError> {
+        Ok(SpeedControlValve {
+            throttle: characteristic(p, "C", "b")?,
+            check: OneWay {
+                flow: characteristic(p, "check_C", "check_b")?,
+                cracking_pressure: p.get("cracking_pressure"),
+                opening_range: p.get("opening_range"),
+            },
+        })
+    }
+    fn paths(&self, a: &gas::GasState, b: &gas::GasState) -> (PortFlow, PortFlow) {
+        (restriction_flow(&self.throttle, 1.0, a, b, 0.0), self.check.flow(a, b))
+    }
+}
+
+impl Block for SpeedControlValve {
+    fn type_name(&self) -> &'static str {
+        "speed_control_valve"
+    }
+    fn ports(&self) -> &[PortSpec] {
+        PORTS
+    }
+    fn flows(&self, ctx: &Ctx, out: &mut [PortFlow]) {
+        let (mut f, check) = self.paths(&ctx.pneumatic[0], &ctx.pneumatic[1]);
+        f += check;
+        out[0] = f;
+        out[1] = -f;
+    }
+    fn outputs(&self) -> &[OutputSpec] {
+        OUTPUTS
+    }
+    fn record(&self, ctx: &Ctx, _b: &Balances, _d: &[f64], out: &mut [Option<f64>]) {
+        let (t, c) = self.paths(&ctx.pneumatic[0], &ctx.pneumatic[1]);
+        out[0] = Some(t.mdot + c.mdot);
+        out[1] = Some(t.mdot);
+        out[2] = Some(c.mdot);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use gas::GasModel;
+
+    #[test]
+    fn free_one_way_throttled_the_other() {
+        let lmin_bar = 1e-3 / 60.0 / 1e5;
+        let v = SpeedControlValve {
+            throttle: FlowCharacteristic::new(13.2 * lmin_bar, 0.3).unwrap(),
+            check: OneWay { flow: FlowCharacteristic::new(490.0 * lmin_bar, 0.3).unwrap(), cracking_pressure: 0.0, opening_range: 1000.0 },
+        };
+        let gas = gas::IdealGas::air();
+        let hi = gas.state_pt(4e5, 292.0);
+        let lo = gas.state_pt(2e5, 292.0);
+        let (t, c) = v.paths(&hi, &lo);
+        let forward = t.mdot + c.mdot;
+        let (t2, c2) = v.paths(&lo, &hi);
+        let backward = -(t2.mdot + c2.mdot);
+        assert_eq!(c2.mdot, 0.0);
+        // forward passes both paths: (13.2 + 490)/13.2 times the throttled flow
+        assert!((forward / backward - (13.2 + 490.0) / 13.2).abs() < 1e-9, "{}", forward / backward);
+    }
+}

@@ -1,0 +1,56 @@
+//! `pneumo`: the command-line front end. The only crate that touches files,
+//! terminals and exit codes. Every failure reaches the user as one line on
+//! stderr and a non-zero exit; output files are written whole or not at all.
+
+mod check;
+mod error;
+mod load;
+mod output;
+mod run;
+mod simulate;
+
+use clap::{Parser, Subcommand};
+use std::process::ExitCode;
+
+/// Simulate pneumatic circuits written as JSON netlists.
+#[derive(Parser, Debug)]
+#[command(name = "pneumo", version, about, long_about = None)]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand, Debug)]
+enum Command {
+    /// Check a netlist: wiring, units, causality; print the causality table.
+    Check(check::CheckArgs),
+    /// Simulate a netlist and write traces, a summary and plots.
+    Simulate(simulate::SimulateArgs),
+    /// Print the JSON Schema of the netlist format.
+    Schema,
+    /// List the block types and their parameters.
+    Blocks,
+}
+
+fn main() -> ExitCode {
+    let cli = Cli::parse();
+    let result = match cli.command {
+        Command::Check(a) => check::run(&a),
+        Command::Simulate(a) => simulate::run(&a),
+        Command::Schema => {
+            println!("{}", serde_json::to_string_pretty(&graph::netlist::schema()).unwrap_or_default());
+            Ok(())
+        }
+        Command::Blocks => {
+            print!("{}", check::block_listing());
+            Ok(())
+        }
+    };
+    match result {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("error: {e}");
+            ExitCode::FAILURE
+        }
+    }
+}

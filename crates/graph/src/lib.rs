@@ -1,0 +1,64 @@
+//! Wiring and causality of pneumatic circuits.
+//!
+//! Owns: the JSON netlist format ([`netlist`]), subsystem expansion and
+//! overrides ([`expand`]), the wired circuit with causality assigned
+//! ([`circuit`]), and human-readable reports of it ([`report`]).
+//! Never knows: the equations inside blocks, the integrator, files (reached
+//! through [`expand::Loader`]), terminals.
+
+pub mod circuit;
+pub mod expand;
+pub mod netlist;
+pub mod report;
+
+pub use circuit::{build, Circuit, NodeCausality, PortRef};
+pub use expand::{apply_set, load, FlatNetlist, Loader};
+pub use netlist::Netlist;
+
+use blocks::block::Domain;
+
+/// A netlist that cannot be turned into a circuit. Every variant names the
+/// file position, component, parameter or port at fault.
+#[derive(Debug, thiserror::Error)]
+pub enum GraphError {
+    #[error("{file}:{line}:{column}: {message}")]
+    Json { file: String, line: usize, column: usize, message: String },
+    #[error("cannot read {file}: {message}")]
+    Io { file: String, message: String },
+    #[error("component \"{id}\": {source}")]
+    Block { id: String, source: blocks::BlockError },
+    #[error("subsystem \"{id}\": {message}")]
+    Subsystem { id: String, message: String },
+    #[error("--set {assignment}: {message}")]
+    Set { assignment: String, message: String },
+    #[error("component id \"{id}\" may contain only letters, digits, '_' and '-'")]
+    BadId { id: String },
+    #[error("component id \"{id}\" is used twice")]
+    DuplicateId { id: String },
+    #[error("\"{reference}\" is not of the form ID.PORT")]
+    BadRef { reference: String },
+    #[error("\"{reference}\": no component \"{id}\"")]
+    UnknownComponent { reference: String, id: String },
+    #[error("\"{reference}\": no such port (ports: {ports})")]
+    UnknownPort { reference: String, ports: String },
+    #[error("\"{reference}\" is connected to itself")]
+    SelfConnection { reference: String },
+    #[error("cannot connect \"{a}\" ({da}) to \"{b}\" ({db}): ports of different domains")]
+    DomainMismatch { a: String, da: Domain, b: String, db: Domain },
+    #[error("signal connection \"{a}\" - \"{b}\" must join one output to one input")]
+    SignalDirection { a: String, b: String },
+    #[error("signal input \"{reference}\" is driven by more than one output")]
+    SignalDriven { reference: String },
+    #[error("port \"{reference}\" is not connected ({doc})")]
+    Unconnected { reference: String, doc: String },
+    #[error("{ports} both impose pressure on one node (derivative causality): join them through a conductance, or merge them into one chamber")]
+    DerivativeCausality { ports: String },
+    #[error("node of {ports} has neither a capacity nor a source: its pressure is undefined")]
+    FloatingNode { ports: String },
+    #[error("mechanical node of {ports} has no moving mass (add a piston)")]
+    NoInertia { ports: String },
+    #[error("{ports} are masses tied rigidly together: merge them into one piston")]
+    TiedInertias { ports: String },
+    #[error("signal loop through \"{id}\" with no state to break it")]
+    SignalLoop { id: String },
+}

@@ -1,0 +1,199 @@
+//! Stiff ODE integration with root (event) location and dense output.
+//!
+//! Purpose: integrate the small (≈4–30 states), stiff, piecewise-smooth systems
+//! `dy/dt = f(t, y)` that lumped-parameter circuit models produce. The crate knows
+//! nothing about the physics: a model implements [`OdeSystem`], an integrator
+//! implementing [`Integrator`] advances it towards a stop time, stopping early where
+//! a root (event) function changes sign so that the caller can apply a
+//! discontinuous change (switch a valve, hit an end stop) and restart.
+//!
+//! Provided integrator: [`Rosenbrock`], the L-stable, stiffly accurate 4th-order
+//! Rosenbrock method RODAS4 with an embedded 3rd-order error estimate and a
+//! 3rd-order dense output (E. Hairer & G. Wanner, *Solving Ordinary Differential
+//! Equations II*, 2nd ed., Springer 1996, §IV.7, Table 7.4 and eq. (7.25) onwards;
+//! see `rodas4.rs` for the coefficient table and its sources).
+//!
+//! Units: the crate is unit-agnostic; `t` and step sizes are in the unit of the
+//! model's independent variable (seconds in `pneumo`), tolerances are in the units
+//! of each state. All arithmetic is `f64`.
+//!
+//! Assumptions and valid ranges:
+//! * `f` is smooth (at least C⁴ for full order) between the events the caller
+//!   handles; discontinuities must be announced through root functions.
+//! * The Jacobian is dense and formed by forward differences, so the method is
+//!   meant for small systems (cost per step ≈ n + 7 evaluations of `f` plus one
+//!   O(n³) LU factorisation).
+//! * Integration may go forwards or backwards in `t`.
+//!
+//! Modules: `lu` (in-place dense LU with partial pivoting on an `nalgebra::DMatrix`),
+//! `rodas4` (coefficients), `dense` (dense output), `roots` (event location),
+//! `rosenbrock` (the integrator and its step-size controller).
+
+mod dense;
+mod lu;
+mod rodas4;
+mod roots;
+mod rosenbrock;
+
+#[cfg(test)]
+mod tests;
+
+pub use rosenbrock::Rosenbrock;
+
+/// Error returned by a model's right-hand side or root functions.
+#[derive(Debug, Clone, thiserror::Error)]
+#[error("{0}")]
+pub struct RhsError(pub String);
+
+/// A system of ordinary differential equations `dy/dt = f(t, y)` with optional
+/// root (event) functions `g(t, y)`.
+pub trait OdeSystem {
+    /// Number of states `n`.
+    fn dim(&self) -> usize;
+    /// dy/dt = f(t, y).
+    fn rhs(&mut self, t: f64, y: &[f64], dydt: &mut [f64]) -> Result<(), RhsError>;
+    /// Number of root (event) functions.
+    fn n_roots(&self) -> usize {
+        0
+    }
+    /// Root functions g(t, y); the integrator stops where any of them changes sign (either direction).
+    fn roots(&mut self, _t: f64, _y: &[f64], _g: &mut [f64]) -> Result<(), RhsError> {
+        Ok(())
+    }
+}
+
+/// Integration options.
+///
+/// `atol` holds one absolute tolerance per state; if it is shorter than the
+/// system dimension, the missing entries repeat its last value (or
+/// [`Options::DEFAULT_ATOL`] when it is empty). The local error of a step is
+/// measured in the weighted RMS norm with weights `atol_i + rtol·max(|y0_i|, |y1_i|)`.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Options {
+    /// Relative tolerance (dimensionless), > 0.
+    pub rtol: f64,
+    /// Absolute tolerance per state, in the unit of that state, > 0.
+    pub atol: Vec<f64>,
+    /// First step size; `None` lets the integrator choose one.
+    pub h_init: Option<f64>,
+    /// Largest step size (magnitude).
+    pub h_max: f64,
+    /// Smallest step size the controller may ask for before giving up with
+    /// [`IntegratorError::StepSizeTooSmall`] (a last step clipped to `t_stop` may be shorter).
+    pub h_min: f64,
+    /// Largest number of accepted steps in one call of [`Integrator::advance`].
+    pub max_steps: usize,
+    /// Width of the final root bracket, in units of `t`.
+    pub root_tol: f64,
+}
+
+impl Options {
+    /// Absolute tolerance used when `atol` is empty.
+    pub const DEFAULT_ATOL: f64 = 1e-8;
+
+    /// Options with the given relative tolerance and the same absolute tolerance
+    /// for all `dim` states; everything else as in [`Default`].
+    pub fn with_tolerances(rtol: f64, atol: f64, dim: usize) -> Self {
+        Self {
+            rtol,
+            atol: vec![atol; dim],
+            ..Self::default()
+        }
+    }
+}
+
+impl Default for Options {
+    fn default() -> Self {
+        Self {
+            rtol: 1e-6,
+            atol: Vec::new(),
+            h_init: None,
+            h_max: f64::INFINITY,
+            h_min: 0.0,
+            max_steps: 100_000,
+            root_tol: 1e-10,
+        }
+    }
+}
+
+/// Failures of an integration.
+#[derive(Debug, thiserror::Error)]
+pub enum IntegratorError {
+    /// The step-size controller asked for a step below `h_min` or below the
+    /// round-off limit of `t`.
+    #[error("step size too small at t = {t:e} s: h = {h:e}")]
+    StepSizeTooSmall { t: f64, h: f64 },
+    /// `max_steps` accepted steps were taken in one `advance` call.
+    #[error("too many steps ({steps}) before reaching the stop time, at t = {t:e}")]
+    TooManySteps { t: f64, steps: usize },
+    /// The right-hand side (or a root function) returned an error at time `t`.
+    #[error("right-hand side failed at t = {t:e}: {source}")]
+    Rhs {
+        t: f64,
+        #[source]
+        source: RhsError,
+    },
+    /// A non-finite value (NaN or ±∞) appeared in state or derivative `index`
+    /// and could not be avoided by reducing the step.
+    #[error("non-finite value in component {index} at t = {t:e}")]
+    NonFinite { t: f64, index: usize },
+    /// The iteration matrix `I/(hγ) − J` was singular or not finite.
+    #[error("singular iteration matrix at t = {t:e}")]
+    SingularMatrix { t: f64 },
+}
+
+/// Dense output of one accepted step, valid on `[t_start, t_end]`
+/// (`t_end` may be before the step's natural end when the step was truncated at a root).
+pub trait Dense {
+    /// Start of the interval covered.
+    fn t_start(&self) -> f64;
+    /// End of the interval covered.
+    fn t_end(&self) -> f64;
+    /// Interpolated state at `t` (should lie in `[t_start, t_end]`; outside it the
+    /// polynomial is extrapolated). `out` must have the system dimension.
+    fn eval(&self, t: f64, out: &mut [f64]);
+}
+
+/// Outcome of [`Integrator::advance`].
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum Advance {
+    /// `t == t_stop`.
+    Reached,
+    /// Stopped just past a sign change of the listed root functions.
+    Root { indices: Vec<usize> },
+}
+
+/// Work counters, cumulative over the life of an integrator.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct Stats {
+    /// Accepted steps.
+    pub steps: usize,
+    /// Rejected step attempts.
+    pub rejected: usize,
+    /// Evaluations of the right-hand side (including those for the Jacobian).
+    pub rhs_evals: usize,
+    /// Jacobian evaluations.
+    pub jacobians: usize,
+    /// LU factorisations.
+    pub lu: usize,
+}
+
+/// A time-stepping method.
+pub trait Integrator {
+    /// Advance (t, y) towards t_stop. Returns Reached with t == t_stop, or Root with (t, y) just past the first sign change
+    /// (the root bracket narrowed below root_tol; the returned point is on the NEW side so that the caller sees the changed sign),
+    /// `indices` listing every root function whose sign differs between the step start and the returned point.
+    /// `observer` is called for every accepted step with its dense output, truncated at the returned point, so the caller can sample outputs.
+    fn advance(
+        &mut self,
+        sys: &mut dyn OdeSystem,
+        t: &mut f64,
+        y: &mut [f64],
+        t_stop: f64,
+        observer: &mut dyn FnMut(&dyn Dense),
+    ) -> Result<Advance, IntegratorError>;
+    /// Forget cached derivative/Jacobian after the caller changed the system discontinuously (keep a step-size hint).
+    fn reset(&mut self);
+    /// Work counters so far.
+    fn stats(&self) -> Stats;
+}

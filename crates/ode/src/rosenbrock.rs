@@ -1,0 +1,782 @@
+//! The RODAS4 Rosenbrock integrator with adaptive step size, dense output and
+//! root location.
+//!
+//! Method: 6-stage, order-4, stiffly accurate, L-stable Rosenbrock method RODAS4
+//! with embedded order-3 solution (Hairer & Wanner, *Solving ODEs II*, §IV.7;
+//! coefficients and formulas in `rodas4.rs`). Each step solves
+//! `(I/(hγ) − J) u_i = f(t0 + c_i h, Y_i) + Σ c_ij u_j / h + h d_i ∂f/∂t` with one LU
+//! factorisation of the iteration matrix.
+//!
+//! * Jacobian `J = ∂f/∂y` (dense): forward differences at the step start, column `j`
+//!   perturbed by `δ_j = √ε·max(|y_j|, atol_j/rtol)` (ε = machine epsilon); `∂f/∂t`
+//!   by a forward difference with `δ_t = √ε·max(|t|, |h|)`. Recomputed at every
+//!   accepted step (Rosenbrock methods need the exact Jacobian for their order),
+//!   reused after a rejection.
+//! * Error: weighted RMS norm of the embedded difference `u_6`,
+//!   `err = sqrt(1/n Σ (u6_i / (atol_i + rtol·max(|y0_i|, |y1_i|)))²)`; a step is
+//!   accepted when `err ≤ 1`.
+//! * Step size: `h_new = h·min(6, max(0.2, 0.9·err^(−1/4)))`, combined on acceptance
+//!   with the predictive controller of Gustafsson (Hairer & Wanner II, §IV.8,
+//!   eq. (8.21)) as in RODAS; no increase right after a rejection; `|h| ≤ h_max`;
+//!   the last step is clipped to hit `t_stop` exactly.
+//! * Initial step (when neither `h_init` nor a hint is known): the estimate of
+//!   Hairer, Nørsett & Wanner, *Solving ODEs I*, §II.4 (one explicit Euler probe).
+//! * Failures: a non-finite stage value or an (almost) singular iteration matrix
+//!   rejects the step and quarters/halves `h`; the integrator gives up with
+//!   `NonFinite`, `SingularMatrix` or `StepSizeTooSmall` when `h` falls below
+//!   `max(h_min, 16ε|t|)` or after 100 consecutive failed attempts, so it never hangs.
+//! * Dense output: the RODAS 3rd-order continuous extension (see `dense.rs`).
+//! * Roots: after each accepted step the root functions are evaluated at its end;
+//!   a sign change (relative to the step start, a zero at the start not counting)
+//!   is located on the dense output by the Illinois bracketing iteration of
+//!   `roots.rs` to within `root_tol`, and the state is returned on the new side.
+//!
+//! All work buffers are allocated in [`Rosenbrock::new`] (or when the dimension or
+//! the number of root functions changes); the step loop does not allocate.
+
+use nalgebra::DMatrix;
+
+use crate::dense::StepDense;
+use crate::lu::LuFactors;
+use crate::rodas4::*;
+use crate::roots::{changed, RootFinder};
+use crate::{Advance, Integrator, IntegratorError, OdeSystem, Options, RhsError, Stats};
+
+const SAFETY: f64 = 0.9;
+const FAC_MIN: f64 = 0.2;
+const FAC_MAX: f64 = 6.0;
+/// Consecutive failed attempts (rejections, non-finite values, singular matrices) tolerated at one point.
+const MAX_FAILURES: usize = 100;
+/// Consecutive singular iteration matrices tolerated before giving up.
+const MAX_SINGULAR: usize = 5;
+
+/// Outcome of one step attempt.
+enum Attempt {
+    /// Computed; weighted error norm.
+    Done(f64),
+    /// A stage produced a non-finite value in `index` at time `t`.
+    NonFinite { t: f64, index: usize },
+    /// The iteration matrix could not be factored.
+    Singular,
+}
+
+/// RODAS4 Rosenbrock integrator (see the module documentation).
+#[derive(Debug, Clone)]
+pub struct Rosenbrock {
+    opts: Options,
+    n: usize,
+    // Cached values at the current point (t_cache, y_cache).
+    cache_valid: bool,
+    jac_valid: bool,
+    roots_valid: bool,
+    t_cache: f64,
+    y_cache: Vec<f64>,
+    f0: Vec<f64>,
+    g0: Vec<f64>,
+    // Work buffers.
+    f1: Vec<f64>,
+    ft: Vec<f64>,
+    fs: Vec<f64>,
+    ytmp: Vec<f64>,
+    y1: Vec<f64>,
+    u: [Vec<f64>; 6],
+    q1: Vec<f64>,
+    q2: Vec<f64>,
+    y_root: Vec<f64>,
+    g1: Vec<f64>,
+    jac: DMatrix<f64>,
+    lu: LuFactors,
+    root_finder: RootFinder,
+    // Step-size control.
+    h_next: Option<f64>,
+    h_acc: f64,
+    err_acc: f64,
+    have_acc: bool,
+    fixed_h: Option<f64>,
+    stats: Stats,
+}
+
+impl Rosenbrock {
+    /// New integrator for systems of dimension `dim`. Options are sanitised:
+    /// `atol` is extended to `dim` entries (see [`Options`]), non-positive or
+    /// non-finite tolerances are replaced by small positive ones.
+    pub fn new(options: Options, dim: usize) -> Self {
+        let mut opts = options;
+        if !(opts.rtol.is_finite() && opts.rtol > 0.0) {
+            opts.rtol = 1e-6;
+        }
+        opts.rtol = opts.rtol.max(10.0 * f64::EPSILON);
+        if !(opts.h_max > 0.0) {
+            opts.h_max = f64::INFINITY;
+        }
+        if !(opts.h_min.is_finite() && opts.h_min >= 0.0) {
+            opts.h_min = 0.0;
+        }
+        if !(opts.root_tol.is_finite() && opts.root_tol > 0.0) {
+            opts.root_tol = 1e-10;
+        }
+        let mut me = Self {
+            opts,
+            n: 0,
+            cache_valid: false,
+            jac_valid: false,
+            roots_valid: false,
+            t_cache: 0.0,
+            y_cache: Vec::new(),
+            f0: Vec::new(),
+            g0: Vec::new(),
+            f1: Vec::new(),
+            ft: Vec::new(),
+            fs: Vec::new(),
+            ytmp: Vec::new(),
+            y1: Vec::new(),
+            u: Default::default(),
+            q1: Vec::new(),
+            q2: Vec::new(),
+            y_root: Vec::new(),
+            g1: Vec::new(),
+            jac: DMatrix::zeros(0, 0),
+            lu: LuFactors::new(0),
+            root_finder: RootFinder::new(0),
+            h_next: None,
+            h_acc: 0.0,
+            err_acc: 1.0,
+            have_acc: false,
+            fixed_h: None,
+            stats: Stats::default(),
+        };
+        me.resize(dim);
+        me
+    }
+
+    /// Human-readable name of the method.
+    pub fn method_name(&self) -> &str {
+        "RODAS4 (Hairer-Wanner), Rosenbrock order 4(3), L-stable, dense output order 3"
+    }
+
+    /// Step size to try first on the next `advance` (magnitude; ignored if not positive and finite).
+    pub fn set_step_hint(&mut self, h: f64) {
+        if h.is_finite() && h > 0.0 {
+            self.h_next = Some(h);
+        }
+    }
+
+    /// The step size the controller proposes for the next step, if known.
+    pub fn step_hint(&self) -> Option<f64> {
+        self.h_next
+    }
+
+    /// Fixed-step mode (no error control, every step accepted unless it produces
+    /// non-finite values): `Some(h)` steps with `|h|` (the last step of each
+    /// `advance` clipped to `t_stop`); `None` restores adaptive stepping.
+    /// Meant for convergence studies.
+    pub fn set_fixed_step(&mut self, h: Option<f64>) {
+        self.fixed_h = h.filter(|h| h.is_finite() && *h > 0.0);
+    }
+
+    /// The options in use (after sanitising).
+    pub fn options(&self) -> &Options {
+        &self.opts
+    }
+
+    fn resize(&mut self, dim: usize) {
+        let last = self
+            .opts
+            .atol
+            .last()
+            .copied()
+            .unwrap_or(Options::DEFAULT_ATOL);
+        self.opts.atol.resize(dim.max(self.opts.atol.len()), last);
+        self.opts.atol.truncate(dim);
+        for a in self.opts.atol.iter_mut() {
+            if !(a.is_finite() && *a > 0.0) {
+                *a = if a.is_finite() && *a < 0.0 {
+                    -*a
+                } else {
+                    f64::MIN_POSITIVE
+                };
+            }
+        }
+        self.n = dim;
+        let z = || vec![0.0; dim];
+        self.y_cache = z();
+        self.f0 = z();
+        self.f1 = z();
+        self.ft = z();
+        self.fs = z();
+        self.ytmp = z();
+        self.y1 = z();
+        self.u = [z(), z(), z(), z(), z(), z()];
+        self.q1 = z();
+        self.q2 = z();
+        self.y_root = z();
+        self.jac = DMatrix::zeros(dim, dim);
+        self.lu = LuFactors::new(dim);
+        self.cache_valid = false;
+        self.jac_valid = false;
+        self.roots_valid = false;
+    }
+
+    fn resize_roots(&mut self, m: usize) {
+        if self.g0.len() != m {
+            self.g0 = vec![0.0; m];
+            self.g1 = vec![0.0; m];
+            self.roots_valid = false;
+        }
+        self.root_finder.ensure_len(m);
+    }
+
+    /// Weighted RMS norm of `v` with weights `atol_i + rtol·|y_i|`.
+    fn wrms(&self, v: &[f64], y: &[f64]) -> f64 {
+        if self.n == 0 {
+            return 0.0;
+        }
+        let mut s = 0.0;
+        for i in 0..self.n {
+            let w = self.opts.atol[i] + self.opts.rtol * y[i].abs();
+            let r = v[i] / w;
+            s += r * r;
+        }
+        (s / self.n as f64).sqrt()
+    }
+
+    /// Initial step magnitude (Hairer–Nørsett–Wanner I, §II.4), using `self.f0` at (t, y).
+    fn initial_step(
+        &mut self,
+        sys: &mut dyn OdeSystem,
+        t: f64,
+        y: &[f64],
+        dir: f64,
+        h_limit: f64,
+    ) -> Result<f64, IntegratorError> {
+        let d0 = self.wrms(y, y);
+        let d1 = self.wrms(&self.f0, y);
+        let mut h0 = if d0 < 1e-5 || d1 < 1e-5 {
+            1e-6
+        } else {
+            0.01 * d0 / d1
+        };
+        h0 = h0.min(h_limit);
+        for i in 0..self.n {
+            self.ytmp[i] = y[i] + dir * h0 * self.f0[i];
+        }
+        let tp = t + dir * h0;
+        let bad = eval_rhs(sys, tp, &self.ytmp, &mut self.fs, &mut self.stats)?;
+        if bad.is_some() {
+            return Ok(h0 * 1e-3);
+        }
+        for i in 0..self.n {
+            self.ytmp[i] = (self.fs[i] - self.f0[i]) / h0;
+        }
+        let d2 = self.wrms(&self.ytmp, y);
+        let dm = d1.max(d2);
+        let h1 = if dm <= 1e-15 {
+            (h0 * 1e-3).max(1e-6)
+        } else {
+            (0.01 / dm).powf(0.2)
+        };
+        Ok((100.0 * h0).min(h1).min(h_limit))
+    }
+
+    /// Finite-difference Jacobian and time derivative at (t, y), using `self.f0`.
+    fn jacobian(
+        &mut self,
+        sys: &mut dyn OdeSystem,
+        t: f64,
+        y: &[f64],
+        h: f64,
+    ) -> Result<(), IntegratorError> {
+        let sqrt_eps = f64::EPSILON.sqrt();
+        self.ytmp.copy_from_slice(y);
+        for j in 0..self.n {
+            let typ = self.opts.atol[j] / self.opts.rtol;
+            let mut d = sqrt_eps * y[j].abs().max(typ);
+            if d == 0.0 || !d.is_finite() {
+                d = sqrt_eps;
+            }
+            let yj = y[j];
+            self.ytmp[j] = yj + d;
+            let d = self.ytmp[j] - yj;
+            if let Some(index) = eval_rhs(sys, t, &self.ytmp, &mut self.fs, &mut self.stats)? {
+                return Err(IntegratorError::NonFinite { t, index });
+            }
+            for i in 0..self.n {
+                self.jac[(i, j)] = (self.fs[i] - self.f0[i]) / d;
+            }
+            self.ytmp[j] = yj;
+        }
+        let dir = if h < 0.0 { -1.0 } else { 1.0 };
+        let tp = t + dir * sqrt_eps * t.abs().max(h.abs()).max(f64::MIN_POSITIVE);
+        let dt = tp - t;
+        if dt != 0.0 {
+            if let Some(index) = eval_rhs(sys, tp, y, &mut self.fs, &mut self.stats)? {
+                return Err(IntegratorError::NonFinite { t, index });
+            }
+            for i in 0..self.n {
+                self.ft[i] = (self.fs[i] - self.f0[i]) / dt;
+            }
+        } else {
+            self.ft.fill(0.0);
+        }
+        self.stats.jacobians += 1;
+        Ok(())
+    }
+
+    /// One RODAS4 step from (t0, y) to t1; fills `self.y1` and `self.u`.
+    fn attempt(
+        &mut self,
+        sys: &mut dyn OdeSystem,
+        t0: f64,
+        t1: f64,
+        y: &[f64],
+    ) -> Result<Attempt, IntegratorError> {
+        let n = self.n;
+        let h = t1 - t0;
+        let inv_hg = 1.0 / (h * GAMMA);
+        {
+            let a = self.lu.matrix_mut();
+            for j in 0..n {
+                for i in 0..n {
+                    a[(i, j)] = -self.jac[(i, j)];
+                }
+                a[(j, j)] += inv_hg;
+            }
+        }
+        self.stats.lu += 1;
+        if self.lu.factor().is_err() {
+            return Ok(Attempt::Singular);
+        }
+        let [u1, u2, u3, u4, u5, u6] = &mut self.u;
+        let ytmp = &mut self.ytmp;
+        let fs = &mut self.fs;
+        let ft = &self.ft;
+        let lu = &self.lu;
+        let stats = &mut self.stats;
+        let inv_h = 1.0 / h;
+
+        // Stage 1.
+        for i in 0..n {
+            u1[i] = self.f0[i] + h * D[0] * ft[i];
+        }
+        lu.solve(u1);
+        // Stage 2.
+        for i in 0..n {
+            ytmp[i] = y[i] + A21 * u1[i];
+        }
+        let ts = t0 + C[1] * h;
+        if let Some(index) = eval_rhs(sys, ts, ytmp, fs, stats)? {
+            return Ok(Attempt::NonFinite { t: ts, index });
+        }
+        for i in 0..n {
+            u2[i] = fs[i] + h * D[1] * ft[i] + C21 * inv_h * u1[i];
+        }
+        lu.solve(u2);
+        // Stage 3.
+        for i in 0..n {
+            ytmp[i] = y[i] + A31 * u1[i] + A32 * u2[i];
+        }
+        let ts = t0 + C[2] * h;
+        if let Some(index) = eval_rhs(sys, ts, ytmp, fs, stats)? {
+            return Ok(Attempt::NonFinite { t: ts, index });
+        }
+        for i in 0..n {
+            u3[i] = fs[i] + h * D[2] * ft[i] + inv_h * (C31 * u1[i] + C32 * u2[i]);
+        }
+        lu.solve(u3);
+        // Stage 4.
+        for i in 0..n {
+            ytmp[i] = y[i] + A41 * u1[i] + A42 * u2[i] + A43 * u3[i];
+        }
+        let ts = t0 + C[3] * h;
+        if let Some(index) = eval_rhs(sys, ts, ytmp, fs, stats)? {
+            return Ok(Attempt::NonFinite { t: ts, index });
+        }
+        for i in 0..n {
+            u4[i] =
+                fs[i] + h * D[3] * ft[i] + inv_h * (C41 * u1[i] + C42 * u2[i] + C43 * u3[i]);
+        }
+        lu.solve(u4);
+        // Stage 5 (c5 = 1).
+        for i in 0..n {
+            ytmp[i] = y[i] + A51 * u1[i] + A52 * u2[i] + A53 * u3[i] + A54 * u4[i];
+        }
+        if let Some(index) = eval_rhs(sys, t1, ytmp, fs, stats)? {
+            return Ok(Attempt::NonFinite { t: t1, index });
+        }
+        for i in 0..n {
+            u5[i] = fs[i] + inv_h * (C51 * u1[i] + C52 * u2[i] + C53 * u3[i] + C54 * u4[i]);
+        }
+        lu.solve(u5);
+        // Stage 6 (c6 = 1): argument = embedded 3rd-order solution.
+        for i in 0..n {
+            ytmp[i] += u5[i];
+        }
+        if let Some(index) = eval_rhs(sys, t1, ytmp, fs, stats)? {
+            return Ok(Attempt::NonFinite { t: t1, index });
+        }
+        for i in 0..n {
+            u6[i] = fs[i]
+                + inv_h
+                    * (C61 * u1[i] + C62 * u2[i] + C63 * u3[i] + C64 * u4[i] + C65 * u5[i]);
+        }
+        lu.solve(u6);
+        for i in 0..n {
+            self.y1[i] = ytmp[i] + u6[i];
+            if !self.y1[i].is_finite() {
+                return Ok(Attempt::NonFinite { t: t1, index: i });
+            }
+        }
+        // Error norm with weights atol + rtol·max(|y0|, |y1|).
+        let mut s = 0.0;
+        for i in 0..n {
+            let w = self.opts.atol[i] + self.opts.rtol * y[i].abs().max(self.y1[i].abs());
+            let r = u6[i] / w;
+            s += r * r;
+        }
+        let err = if n > 0 { (s / n as f64).sqrt() } else { 0.0 };
+        Ok(Attempt::Done(err))
+    }
+
+    /// Coefficients of the dense output from the stages of the accepted step.
+    fn prepare_dense(&mut self) {
+        for i in 0..self.n {
+            let mut a = 0.0;
+            let mut b = 0.0;
+            for j in 0..5 {
+                a += E1[j] * self.u[j][i];
+                b += E2[j] * self.u[j][i];
+            }
+            self.q1[i] = a;
+            self.q2[i] = b;
+        }
+    }
+
+    /// Ensure f0 (and g0) correspond to (t, y).
+    fn refresh_cache(
+        &mut self,
+        sys: &mut dyn OdeSystem,
+        t: f64,
+        y: &[f64],
+    ) -> Result<(), IntegratorError> {
+        let same_point = self.cache_valid && t == self.t_cache && y == self.y_cache.as_slice();
+        if !same_point {
+            if let Some(index) = y.iter().position(|v| !v.is_finite()) {
+                return Err(IntegratorError::NonFinite { t, index });
+            }
+            if let Some(index) = eval_rhs(sys, t, y, &mut self.f0, &mut self.stats)? {
+                return Err(IntegratorError::NonFinite { t, index });
+            }
+            self.t_cache = t;
+            self.y_cache.copy_from_slice(y);
+            self.cache_valid = true;
+            self.jac_valid = false;
+            self.roots_valid = false;
+        }
+        if !self.roots_valid {
+            eval_roots(sys, t, y, &mut self.g0)?;
+            self.roots_valid = true;
+        }
+        Ok(())
+    }
+
+    /// Step-size factor after an accepted step with error `err` and size `h` (magnitude).
+    fn accepted_factor(&mut self, err: f64, h: f64) -> f64 {
+        let e = err.max(1e-10);
+        let mut fac = (SAFETY * e.powf(-ERR_EXPONENT)).clamp(FAC_MIN, FAC_MAX);
+        if self.have_acc && self.h_acc > 0.0 {
+            // Gustafsson's predictive controller.
+            let gus = SAFETY * (h / self.h_acc) * (self.err_acc / (e * e)).powf(ERR_EXPONENT);
+            fac = fac.min(gus.clamp(FAC_MIN, FAC_MAX));
+        }
+        self.have_acc = true;
+        self.h_acc = h;
+        self.err_acc = err.max(1e-2);
+        fac
+    }
+}
+
+/// Evaluate f; `Ok(Some(i))` if component `i` is not finite.
+fn eval_rhs(
+    sys: &mut dyn OdeSystem,
+    t: f64,
+    y: &[f64],
+    out: &mut [f64],
+    stats: &mut Stats,
+) -> Result<Option<usize>, IntegratorError> {
+    stats.rhs_evals += 1;
+    sys.rhs(t, y, out)
+        .map_err(|source| IntegratorError::Rhs { t, source })?;
+    Ok(out.iter().position(|v| !v.is_finite()))
+}
+
+/// Evaluate the root functions; a non-finite value is reported as an Rhs error.
+fn eval_roots(
+    sys: &mut dyn OdeSystem,
+    t: f64,
+    y: &[f64],
+    g: &mut [f64],
+) -> Result<(), IntegratorError> {
+    if g.is_empty() {
+        return Ok(());
+    }
+    sys.roots(t, y, g)
+        .map_err(|source| IntegratorError::Rhs { t, source })?;
+    if let Some(i) = g.iter().position(|v| !v.is_finite()) {
+        return Err(IntegratorError::Rhs {
+            t,
+            source: RhsError(format!("root function {i} is not finite")),
+        });
+    }
+    Ok(())
+}
+
+impl Integrator for Rosenbrock {
+    fn advance(
+        &mut self,
+        sys: &mut dyn OdeSystem,
+        t: &mut f64,
+        y: &mut [f64],
+        t_stop: f64,
+        observer: &mut dyn FnMut(&dyn crate::Dense),
+    ) -> Result<Advance, IntegratorError> {
+        if sys.dim() != y.len() {
+            return Err(IntegratorError::Rhs {
+                t: *t,
+                source: RhsError(format!(
+                    "dimension mismatch: system has {} states, y has {}",
+                    sys.dim(),
+                    y.len()
+                )),
+            });
+        }
+        if y.len() != self.n {
+            self.resize(y.len());
+        }
+        self.resize_roots(sys.n_roots());
+        if !t.is_finite() || !t_stop.is_finite() {
+            return Err(IntegratorError::NonFinite {
+                t: *t,
+                index: 0,
+            });
+        }
+        if *t == t_stop {
+            return Ok(Advance::Reached);
+        }
+        let dir = if t_stop > *t { 1.0 } else { -1.0 };
+        self.refresh_cache(sys, *t, y)?;
+
+        let n = self.n;
+        let h_max = self.opts.h_max;
+        let mut h = match (self.fixed_h, self.h_next, self.opts.h_init) {
+            (Some(hf), _, _) => hf,
+            (None, Some(hn), _) => hn,
+            (None, None, Some(hi)) if hi.is_finite() && hi > 0.0 => hi,
+            _ => {
+                let lim = h_max.min((t_stop - *t).abs());
+                self.initial_step(sys, *t, y, dir, lim)?
+            }
+        };
+        h = h.min(h_max);
+        let mut steps = 0usize;
+        let mut failures = 0usize;
+        let mut singular = 0usize;
+        let mut after_reject = false;
+
+        loop {
+            if !self.jac_valid {
+                self.jacobian(sys, *t, y, dir * h)?;
+                self.jac_valid = true;
+            }
+            // Clip to t_stop; avoid leaving a sliver shorter than 1e-4·h.
+            let remaining = (t_stop - *t).abs();
+            let h_unclipped = h;
+            let last = h * 1.0001 >= remaining;
+            if last {
+                h = remaining;
+            }
+            let t1 = if last { t_stop } else { *t + dir * h };
+            let floor = self.opts.h_min.max(16.0 * f64::EPSILON * t.abs());
+
+            let attempt = self.attempt(sys, *t, t1, y)?;
+            let err = match attempt {
+                Attempt::Done(err) if err <= 1.0 || self.fixed_h.is_some() => {
+                    // Derivative at the new point (needed for the next step).
+                    match eval_rhs(sys, t1, &self.y1, &mut self.f1, &mut self.stats)? {
+                        None => Some(err),
+                        Some(index) => {
+                            self.stats.rejected += 1;
+                            failures += 1;
+                            h *= 0.25;
+                            if self.fixed_h.is_some() || h < floor || failures > MAX_FAILURES {
+                                return Err(IntegratorError::NonFinite { t: t1, index });
+                            }
+                            None
+                        }
+                    }
+                }
+                Attempt::Done(err) => {
+                    self.stats.rejected += 1;
+                    failures += 1;
+                    let fac = (SAFETY * err.powf(-ERR_EXPONENT)).clamp(FAC_MIN, 0.9);
+                    h *= if err.is_finite() { fac } else { FAC_MIN };
+                    after_reject = true;
+                    if h < floor || failures > MAX_FAILURES {
+                        return Err(IntegratorError::StepSizeTooSmall { t: *t, h });
+                    }
+                    None
+                }
+                Attempt::NonFinite { t: tf, index } => {
+                    self.stats.rejected += 1;
+                    failures += 1;
+                    h *= 0.25;
+                    after_reject = true;
+                    if self.fixed_h.is_some() || h < floor || failures > MAX_FAILURES {
+                        return Err(IntegratorError::NonFinite { t: tf, index });
+                    }
+                    None
+                }
+                Attempt::Singular => {
+                    self.stats.rejected += 1;
+                    failures += 1;
+                    singular += 1;
+                    h *= 0.5;
+                    after_reject = true;
+                    if self.fixed_h.is_some() || singular > MAX_SINGULAR || h < floor {
+                        return Err(IntegratorError::SingularMatrix { t: *t });
+                    }
+                    None
+                }
+            };
+            let Some(err) = err else {
+                continue;
+            };
+
+            // ---- Accepted step (t -> t1). ----
+            self.stats.steps += 1;
+            steps += 1;
+            failures = 0;
+            singular = 0;
+            self.prepare_dense();
+            let t0 = *t;
+
+            // Next step size.
+            let mut h_new = if let Some(hf) = self.fixed_h {
+                hf
+            } else {
+                let mut hn = h * self.accepted_factor(err, h);
+                if after_reject {
+                    hn = hn.min(h);
+                }
+                if last && h_unclipped > h {
+                    // The step was shortened only to hit t_stop: keep the longer proposal.
+                    hn = hn.max(h_unclipped);
+                }
+                hn
+            };
+            h_new = h_new.min(h_max);
+            after_reject = false;
+            self.h_next = Some(h_new);
+
+            // Root functions at the step end.
+            let m = self.g0.len();
+            let mut root_at = None;
+            if m > 0 {
+                eval_roots(sys, t1, &self.y1, &mut self.g1)?;
+                if (0..m).any(|i| changed(self.g0[i], self.g1[i])) {
+                    let tol = self
+                        .opts
+                        .root_tol
+                        .max(4.0 * f64::EPSILON * t0.abs().max(t1.abs()));
+                    let dense = StepDense {
+                        t0,
+                        t1,
+                        t_end: t1,
+                        y0: y,
+                        y1: &self.y1,
+                        q1: &self.q1,
+                        q2: &self.q2,
+                    };
+                    let y_root = &mut self.y_root;
+                    let tr = self.root_finder.locate(
+                        t0,
+                        t1,
+                        &self.g0,
+                        &self.g1,
+                        tol,
+                        &mut |tm: f64, g: &mut [f64]| {
+                            dense.interpolate(tm, y_root);
+                            eval_roots(sys, tm, y_root, g)
+                        },
+                    )?;
+                    root_at = Some(tr);
+                }
+            }
+
+            if let Some(tr) = root_at {
+                let dense = StepDense {
+                    t0,
+                    t1,
+                    t_end: tr,
+                    y0: y,
+                    y1: &self.y1,
+                    q1: &self.q1,
+                    q2: &self.q2,
+                };
+                dense.interpolate(tr, &mut self.y_root);
+                observer(&dense);
+                let indices: Vec<usize> = (0..m)
+                    .filter(|&i| changed(self.g0[i], self.root_finder.g_hi[i]))
+                    .collect();
+                y.copy_from_slice(&self.y_root);
+                *t = tr;
+                // The caller is expected to change the system here; nothing is cached.
+                self.cache_valid = false;
+                self.jac_valid = false;
+                self.roots_valid = false;
+                return Ok(Advance::Root { indices });
+            }
+
+            {
+                let dense = StepDense {
+                    t0,
+                    t1,
+                    t_end: t1,
+                    y0: y,
+                    y1: &self.y1,
+                    q1: &self.q1,
+                    q2: &self.q2,
+                };
+                observer(&dense);
+            }
+            y.copy_from_slice(&self.y1);
+            *t = t1;
+            std::mem::swap(&mut self.f0, &mut self.f1);
+            std::mem::swap(&mut self.g0, &mut self.g1);
+            self.t_cache = t1;
+            self.y_cache.copy_from_slice(y);
+            self.cache_valid = true;
+            self.roots_valid = true;
+            self.jac_valid = false;
+            debug_assert_eq!(n, y.len());
+
+            if last {
+                return Ok(Advance::Reached);
+            }
+            if steps >= self.opts.max_steps {
+                return Err(IntegratorError::TooManySteps { t: *t, steps });
+            }
+            h = h_new;
+        }
+    }
+
+    fn reset(&mut self) {
+        self.cache_valid = false;
+        self.jac_valid = false;
+        self.roots_valid = false;
+        self.have_acc = false;
+    }
+
+    fn stats(&self) -> Stats {
+        self.stats
+    }
+}

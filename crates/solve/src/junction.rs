@@ -1,0 +1,263 @@
+//! Algebraic junctions: nodes between restrictions with no capacity.
+//!
+//! The node holds no gas, so the mass flows into it must sum to zero. The
+//! net flow out of the node into the attached restrictions, S(p), increases
+//! with the node pressure p (each ISO 6358 restriction's flow is monotone in
+//! either pressure), so the root lies between the lowest and the highest
+//! pressure of the neighbouring nodes and a bracketed solve always converges.
+//! We use the Illinois variant of regula falsi (Dowell & Jarratt 1971) with a
+//! bisection safeguard, warm-started from the previous solution.
+//!
+//! The junction temperature follows from the energy balance of a massless
+//! node: the gas leaving it carries the mixed enthalpy of the gas entering,
+//! h_j = Σ_in Ė / Σ_in ṁ (isenthalpic throttling), converted to T at p_j.
+//! Several junctions coupled through restrictions are solved by Gauss–Seidel
+//! sweeps of the single-node solve.
+
+use crate::model::{ModelError, Slot};
+use blocks::block::Ctx;
+use gas::{GasModel, GasState};
+use graph::Circuit;
+
+/// Relative pressure tolerance of the junction solve. Tight, because the
+/// integrator differentiates the right-hand side numerically.
+const P_RTOL: f64 = 1e-13;
+const MAX_ITER: usize = 200;
+
+/// Net mass flow from junction `node` into its attached blocks at pressure p.
+#[allow(clippy::too_many_arguments)]
+fn net_outflow(
+    circuit: &Circuit,
+    slots: &mut [Slot],
+    attached: &[(usize, usize)],
+    state: GasState,
+    gas: &dyn GasModel,
+    t: f64,
+    y: &[f64],
+) -> (f64, f64, f64) {
+    let mut s = 0.0;
+    let (mut in_m, mut in_e) = (0.0, 0.0);
+    for &(bi, k) in attached {
+        let slot = &mut slots[bi];
+        slot.gas[k] = state;
+        let ctx = Ctx { t, gas, states: &y[slot.states.clone()], pneumatic: &slot.gas, mechanical: &slot.mech, signals: &slot.sig };
+        circuit.instances[bi].block.flows(&ctx, &mut slot.flows);
+        let f = slot.flows[k];
+        s += f.mdot;
+        if f.mdot < 0.0 {
+            in_m -= f.mdot;
+            in_e -= f.edot;
+        }
+    }
+    (s, in_m, in_e)
+}
+
+/// Pressures at the other pneumatic ports of the blocks attached to a node.
+fn neighbour_range(slots: &[Slot], attached: &[(usize, usize)], node: usize, node_gas: &[GasState]) -> (f64, f64, f64) {
+    let (mut lo, mut hi, mut t_hi) = (f64::INFINITY, f64::NEG_INFINITY, f64::NAN);
+    for &(bi, _) in attached {
+        for &n in &slots[bi].pneu_nodes {
+            if n == node {
+                continue;
+            }
+            let s = node_gas[n];
+            lo = lo.min(s.p);
+            if s.p > hi {
+                hi = s.p;
+                t_hi = s.t;
+            }
+        }
+    }
+    (lo, hi, t_hi)
+}
+
+/// Temperature at pressure p with specific enthalpy h (Newton on T).
+fn temperature_from_enthalpy(gas: &dyn GasModel, p: f64, h: f64, mut t: f64) -> f64 {
+    for _ in 0..8 {
+        let rho = gas.density(p, t);
+        let dt = (h - gas.enthalpy(rho, t)) / gas.cp(rho, t);
+        t += dt;
+        if dt.abs() < 1e-12 * t {
+            break;
+        }
+    }
+    t
+}
+
+/// Solve one cluster of junction nodes; leaves node states and block
+/// pneumatic buffers consistent with the solution.
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn solve_cluster(
+    circuit: &Circuit,
+    slots: &mut [Slot],
+    node_gas: &mut [GasState],
+    junction_ports: &[Vec<(usize, usize)>],
+    guess: &mut [f64],
+    cluster: &[usize],
+    gas: &dyn GasModel,
+    t: f64,
+    y: &[f64],
+) -> Result<(), ModelError> {
+    let sweeps = if cluster.len() == 1 { 1 } else { 100 };
+    for _ in 0..sweeps {
+        let mut change: f64 = 0.0;
+        for &node in cluster {
+            let old = node_gas[node].p;
+            solve_node(circuit, slots, node_gas, &junction_ports[node], guess, node, gas, t, y)?;
+            change = change.max((node_gas[node].p - old).abs() / node_gas[node].p);
+        }
+        if change < 1e-12 {
+            break;
+        }
+    }
+    Ok(())
+}
+
+#[allow(clippy::too_many_arguments)]
+fn solve_node(
+    circuit: &Circuit,
+    slots: &mut [Slot],
+    node_gas: &mut [GasState],
+    attached: &[(usize, usize)],
+    guess: &mut [f64],
+    node: usize,
+    gas: &dyn GasModel,
+    t: f64,
+    y: &[f64],
+) -> Result<(), ModelError> {
+    let (lo0, hi0, t_up) = neighbour_range(slots, attached, node, node_gas);
+    let fail = |message: String| ModelError::Junction {
+        t,
+        ports: attached
+            .iter()
+            .map(|&(bi, _)| circuit.instances[bi].id.clone())
+            .collect::<Vec<_>>()
+            .join(", "),
+        message,
+    };
+    if !(lo0.is_finite() && hi0.is_finite() && lo0 > 0.0) {
+        return Err(fail(format!("neighbour pressures not usable ({lo0} .. {hi0} Pa)")));
+    }
+    let mut temp = if t_up.is_finite() { t_up } else { 293.15 };
+    let mut p = lo0;
+    for _outer in 0..4 {
+        let state_at = |p: f64, temp: f64| gas.state_pt(p, temp);
+        let (mut lo, mut hi) = (lo0, hi0);
+        let mut f_lo = net_outflow(circuit, slots, attached, state_at(lo, temp), gas, t, y).0;
+        let mut f_hi = net_outflow(circuit, slots, attached, state_at(hi, temp), gas, t, y).0;
+        // flow sources can push the root outside the neighbours' range: widen
+        let mut widen = 0;
+        while f_hi < 0.0 && widen < 60 {
+            hi *= 2.0;
+            f_hi = net_outflow(circuit, slots, attached, state_at(hi, temp), gas, t, y).0;
+            widen += 1;
+        }
+        while f_lo > 0.0 && widen < 120 {
+            lo *= 0.5;
+            f_lo = net_outflow(circuit, slots, attached, state_at(lo, temp), gas, t, y).0;
+            widen += 1;
+        }
+        if f_lo > 0.0 || f_hi < 0.0 {
+            return Err(fail(format!("no pressure balances the flows between {lo} and {hi} Pa")));
+        }
+        if f_lo == 0.0 && f_hi == 0.0 {
+            // no flow at all (all paths closed): any pressure balances; keep the previous one
+            p = if guess[node].is_finite() { guess[node].clamp(lo, hi) } else { 0.5 * (lo + hi) };
+        } else if f_lo == 0.0 {
+            p = lo;
+        } else if f_hi == 0.0 {
+            p = hi;
+        } else {
+            // warm start: shrink the bracket around the previous solution
+            let g = guess[node];
+            if g.is_finite() && g > lo && g < hi {
+                let span = (hi - lo) * 1e-6;
+                for cand in [g - span, g + span] {
+                    if cand > lo && cand < hi {
+                        let fc = net_outflow(circuit, slots, attached, state_at(cand, temp), gas, t, y).0;
+                        if fc <= 0.0 {
+                            lo = cand;
+                            f_lo = fc;
+                        } else {
+                            hi = cand;
+                            f_hi = fc;
+                        }
+                    }
+                }
+            }
+            p = illinois(|p| net_outflow(circuit, slots, attached, state_at(p, temp), gas, t, y).0, lo, f_lo, hi, f_hi)
+                .ok_or_else(|| fail("pressure iteration did not converge".into()))?;
+        }
+        // energy balance of the massless node
+        let (_, in_m, in_e) = net_outflow(circuit, slots, attached, state_at(p, temp), gas, t, y);
+        let new_temp = if in_m > 0.0 { temperature_from_enthalpy(gas, p, in_e / in_m, temp) } else { temp };
+        if !new_temp.is_finite() || new_temp <= 0.0 {
+            return Err(fail(format!("junction temperature not finite at p = {p} Pa")));
+        }
+        let converged = (new_temp - temp).abs() <= 1e-11 * temp;
+        temp = new_temp;
+        if converged {
+            break;
+        }
+    }
+    let state = gas.state_pt(p, temp);
+    node_gas[node] = state;
+    guess[node] = p;
+    for &(bi, k) in attached {
+        slots[bi].gas[k] = state;
+    }
+    Ok(())
+}
+
+/// Illinois regula falsi on a bracket with f(lo) < 0 < f(hi).
+fn illinois(mut f: impl FnMut(f64) -> f64, mut lo: f64, mut f_lo: f64, mut hi: f64, mut f_hi: f64) -> Option<f64> {
+    let mut side = 0i8;
+    for i in 0..MAX_ITER {
+        if hi - lo <= P_RTOL * hi {
+            return Some(if -f_lo < f_hi { lo } else { hi });
+        }
+        let mut x = (lo * f_hi - hi * f_lo) / (f_hi - f_lo);
+        // bisect when the secant point is stuck at an end (every 8th iteration as a safeguard too)
+        if !(x > lo && x < hi) || i % 8 == 7 {
+            x = 0.5 * (lo + hi);
+        }
+        let fx = f(x);
+        if fx == 0.0 {
+            return Some(x);
+        }
+        if fx < 0.0 {
+            lo = x;
+            f_lo = fx;
+            if side == -1 {
+                f_hi *= 0.5;
+            }
+            side = -1;
+        } else {
+            hi = x;
+            f_hi = fx;
+            if side == 1 {
+                f_lo *= 0.5;
+            }
+            side = 1;
+        }
+    }
+    None
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn illinois_finds_roots_of_monotone_functions() {
+        for (a, root) in [(1.0, 3.3e5), (50.0, 1.0e5), (1e-3, 6.9e5)] {
+            let f = |p: f64| a * (p - root) + (p - root).powi(3) * 1e-12;
+            let x = illinois(f, 1e5 - 1.0, f(1e5 - 1.0), 7e5, f(7e5)).unwrap();
+            assert!((x - root).abs() < 1e-6, "{x} vs {root}");
+        }
+        // a square-root shaped flow (choked/subsonic mix)
+        let f = |p: f64| if p < 2e5 { -(2e5 - p).sqrt() } else { (p - 2e5).sqrt() * 3.0 };
+        let x = illinois(f, 1e5, f(1e5), 4e5, f(4e5)).unwrap();
+        assert!((x - 2e5).abs() < 1e-3, "{x}");
+    }
+}

@@ -1,0 +1,18 @@
+//! Flattening a wired circuit into one hybrid ODE and integrating it.
+//!
+//! Owns: the flat state vector and right-hand side ([`model`]), algebraic
+//! junctions ([`junction`]), stick–slip and end-stop modes of mechanical
+//! nodes ([`mechanics`]), the event loop and result sampling ([`simulate`]),
+//! and the reading of simulation settings ([`settings`]).
+//! Never knows: concrete block types (blocks are reached through the
+//! `Block` trait only), files, terminals.
+
+pub mod junction;
+pub mod mechanics;
+pub mod model;
+pub mod settings;
+pub mod simulate;
+
+pub use model::{Model, ModelError};
+pub use settings::options_from;
+pub use simulate::{simulate, Balance, EventLog, SimOptions, SimResult, SolveError};

@@ -1,0 +1,502 @@
+//! The flattened model: one state vector, one right-hand side, root
+//! functions — built from a [`graph::Circuit`] without naming any block type.
+//!
+//! State vector layout: the blocks' states in block order, then four
+//! quadrature states used only for the balance report:
+//! [∫ṁ_boundary, ∫Ė_boundary, ∫Q_wall, ∫p·V̇] (boundary = flows entering
+//! through sources). Root functions: the blocks' event functions in block
+//! order, then [`mechanics::N_ROOTS`] per mechanical node.
+//!
+//! One evaluation runs the phases of [`blocks::block`] in order:
+//! kinematics → efforts → signals → junction pressures → flows → forces and
+//! node motion → derivatives.
+
+use crate::junction;
+use crate::mechanics::{self, Mode, NodeForces};
+use blocks::block::*;
+use gas::{GasModel, GasState};
+use graph::{Circuit, NodeCausality, PortRef};
+use std::ops::Range;
+use std::sync::Arc;
+
+/// Quadrature states appended after the block states.
+pub const N_QUADRATURE: usize = 4;
+
+/// Per-block index tables and scratch buffers.
+#[derive(Debug, Clone)]
+pub(crate) struct Slot {
+    pub states: Range<usize>,
+    /// Node of each pneumatic port, in the block's pneumatic-port order.
+    pub pneu_nodes: Vec<usize>,
+    pub pneu_is_effort: Vec<bool>,
+    pub mech_nodes: Vec<usize>,
+    pub mech_is_inertia: Vec<bool>,
+    /// Global signal index read by each signal input.
+    pub sig_in: Vec<usize>,
+    /// Global signal indices written by the signal outputs.
+    pub sig_out: Range<usize>,
+    pub events: Range<usize>,
+    pub outputs: Range<usize>,
+    pub has_flow: bool,
+    pub has_effort: bool,
+    // scratch
+    pub gas: Vec<GasState>,
+    pub gas_out: Vec<GasState>,
+    pub mech: Vec<MechState>,
+    pub sig: Vec<f64>,
+    pub sig_buf: Vec<f64>,
+    pub flows: Vec<PortFlow>,
+    pub forces: Vec<PortForce>,
+    pub bal_flow: Vec<PortFlow>,
+    pub motion: Vec<Motion>,
+}
+
+/// A circuit ready for integration.
+#[derive(Debug)]
+pub struct Model {
+    pub circuit: Circuit,
+    pub gas: Arc<dyn GasModel>,
+    pub(crate) slots: Vec<Slot>,
+    /// Number of block states (quadrature excluded).
+    pub n_states: usize,
+    pub n_block_events: usize,
+    pub n_signals: usize,
+    pub n_outputs: usize,
+    pub node_gas: Vec<GasState>,
+    pub(crate) node_inflow: Vec<PortFlow>,
+    pub node_mech: Vec<MechState>,
+    pub node_forces: Vec<NodeForces>,
+    pub modes: Vec<Mode>,
+    pub(crate) signals: Vec<f64>,
+    /// For each junction node: (block, pneumatic-port index) pairs attached to it.
+    pub(crate) junction_ports: Vec<Vec<(usize, usize)>>,
+    /// Last solved junction pressures (warm start), per pneumatic node.
+    pub(crate) junction_guess: Vec<f64>,
+    /// Number of right-hand-side evaluations.
+    pub evaluations: u64,
+}
+
+/// Why the model could not be built or evaluated.
+#[derive(Debug, thiserror::Error)]
+pub enum ModelError {
+    #[error("{what} is not finite at t = {t} s")]
+    NonFinite { t: f64, what: String },
+    #[error("junction of {ports} at t = {t} s: {message}")]
+    Junction { t: f64, ports: String, message: String },
+}
+
+impl Model {
+    pub fn new(circuit: Circuit) -> Model {
+        let gas = circuit.gas.clone();
+        let mut slots = Vec::new();
+        let (mut ns, mut nsig, mut nev, mut nout) = (0, 0, 0, 0);
+        // first pass: signal output indices
+        let mut sig_base = Vec::new();
+        for inst in &circuit.instances {
+            sig_base.push(nsig);
+            nsig += inst.block.ports().iter().filter(|p| p.kind == PortKind::SignalOut).count();
+        }
+        for (bi, inst) in circuit.instances.iter().enumerate() {
+            let ports = inst.block.ports();
+            let mut pneu_nodes = Vec::new();
+            let mut pneu_is_effort = Vec::new();
+            let mut mech_nodes = Vec::new();
+            let mut mech_is_inertia = Vec::new();
+            let mut n_out = 0;
+            for (pi, p) in ports.iter().enumerate() {
+                match p.kind.domain() {
+                    Domain::Pneumatic => {
+                        pneu_nodes.push(inst.port_nodes[pi].unwrap_or(0));
+                        pneu_is_effort.push(p.kind == PortKind::PneumaticEffort);
+                    }
+                    Domain::Mechanical => {
+                        mech_nodes.push(inst.port_nodes[pi].unwrap_or(0));
+                        mech_is_inertia.push(p.kind == PortKind::MechanicalInertia);
+                    }
+                    Domain::Signal => {
+                        if p.kind == PortKind::SignalOut {
+                            n_out += 1;
+                        }
+                    }
+                }
+            }
+            let sig_in: Vec<usize> = inst
+                .signal_sources
+                .iter()
+                .map(|src| {
+                    let k = circuit.instances[src.block].block.ports()[..src.port]
+                        .iter()
+                        .filter(|p| p.kind == PortKind::SignalOut)
+                        .count();
+                    sig_base[src.block] + k
+                })
+                .collect();
+            let n_states = inst.block.states().len();
+            let n_events = inst.block.n_event_functions();
+            let n_rec = n_out + inst.block.outputs().len();
+            let blank = GasState { p: 0.0, t: 0.0, rho: 0.0, h: 0.0 };
+            slots.push(Slot {
+                states: ns..ns + n_states,
+                has_flow: pneu_is_effort.iter().any(|e| !e),
+                has_effort: pneu_is_effort.iter().any(|e| *e),
+                gas: vec![blank; pneu_nodes.len()],
+                gas_out: vec![blank; pneu_nodes.len()],
+                flows: vec![PortFlow::default(); pneu_nodes.len()],
+                bal_flow: vec![PortFlow::default(); pneu_nodes.len()],
+                mech: vec![MechState::default(); mech_nodes.len()],
+                forces: vec![PortForce::default(); mech_nodes.len()],
+                motion: vec![Motion::default(); mech_nodes.len()],
+                sig: vec![0.0; sig_in.len()],
+                sig_buf: vec![0.0; n_out],
+                pneu_nodes,
+                pneu_is_effort,
+                mech_nodes,
+                mech_is_inertia,
+                sig_in,
+                sig_out: sig_base[bi]..sig_base[bi] + n_out,
+                events: nev..nev + n_events,
+                outputs: nout..nout + n_rec,
+            });
+            ns += n_states;
+            nev += n_events;
+            nout += n_rec;
+        }
+        let n_nodes = circuit.pneumatic_nodes.len();
+        let mut junction_ports = vec![Vec::new(); n_nodes];
+        for (node, pn) in circuit.pneumatic_nodes.iter().enumerate() {
+            if pn.causality == NodeCausality::Junction {
+                for r in &pn.ports {
+                    let k = pneumatic_index(&circuit, *r);
+                    junction_ports[node].push((r.block, k));
+                }
+            }
+        }
+        let n_mech = circuit.mechanical_nodes.len();
+        let blank = GasState { p: 101_325.0, t: 293.15, rho: 1.2, h: 0.0 };
+        Model {
+            gas,
+            slots,
+            n_states: ns,
+            n_block_events: nev,
+            n_signals: nsig,
+            n_outputs: nout,
+            node_gas: vec![blank; n_nodes],
+            node_inflow: vec![PortFlow::default(); n_nodes],
+            node_mech: vec![MechState::default(); n_mech],
+            node_forces: vec![NodeForces::default(); n_mech],
+            modes: vec![Mode::Held { may_extend: true, may_retract: true }; n_mech],
+            signals: vec![0.0; nsig],
+            junction_ports,
+            junction_guess: vec![f64::NAN; n_nodes],
+            evaluations: 0,
+            circuit,
+        }
+    }
+
+    /// Total length of the ODE state vector (block states plus quadratures).
+    pub fn dim(&self) -> usize {
+        self.n_states + N_QUADRATURE
+    }
+
+    /// Number of root functions.
+    pub fn n_roots(&self) -> usize {
+        self.n_block_events + mechanics::N_ROOTS * self.circuit.mechanical_nodes.len()
+    }
+
+    /// Initial state vector: inertias first (their positions fix chamber volumes).
+    pub fn initial_state(&mut self) -> Vec<f64> {
+        let mut y = vec![0.0; self.dim()];
+        let gas = self.gas.clone();
+        for node in 0..self.circuit.mechanical_nodes.len() {
+            let r = self.circuit.mechanical_nodes[node].inertia;
+            let slot = &mut self.slots[r.block];
+            let block = &self.circuit.instances[r.block].block;
+            let ctx = InitCtx { gas: &*gas, mechanical: &[] };
+            block.initial_states(&ctx, &mut y[slot.states.clone()]);
+            block.kinematics(&y[slot.states.clone()], &mut slot.mech);
+            let k = mech_index(&self.circuit, r);
+            self.node_mech[node] = slot.mech[k];
+        }
+        let inertia_blocks: Vec<usize> = self.circuit.mechanical_nodes.iter().map(|n| n.inertia.block).collect();
+        for (bi, slot) in self.slots.iter_mut().enumerate() {
+            if inertia_blocks.contains(&bi) {
+                continue;
+            }
+            for (k, &node) in slot.mech_nodes.iter().enumerate() {
+                slot.mech[k] = self.node_mech[node];
+            }
+            let ctx = InitCtx { gas: &*gas, mechanical: &slot.mech };
+            self.circuit.instances[bi].block.initial_states(&ctx, &mut y[slot.states.clone()]);
+        }
+        y
+    }
+
+    /// Typical magnitudes of the states, for absolute tolerances.
+    pub fn state_scales(&self, y0: &[f64]) -> Vec<f64> {
+        let mut s = vec![1.0; self.dim()];
+        for (bi, slot) in self.slots.iter().enumerate() {
+            self.circuit.instances[bi].block.state_scales(&y0[slot.states.clone()], &mut s[slot.states.clone()]);
+        }
+        s
+    }
+
+    /// Evaluate everything at (t, y): node values, flows, forces, and if
+    /// asked the derivatives `dy` and root functions `g`.
+    pub fn eval(&mut self, t: f64, y: &[f64], dy: Option<&mut [f64]>, g: Option<&mut [f64]>) -> Result<(), ModelError> {
+        self.evaluations += 1;
+        let gas = self.gas.clone();
+        let gas: &dyn GasModel = &*gas;
+        let Model { circuit, slots, node_gas, node_inflow, node_mech, node_forces, modes, signals, junction_ports, junction_guess, .. } = self;
+
+        // 1. kinematics of inertias
+        for (node, mn) in circuit.mechanical_nodes.iter().enumerate() {
+            let r = mn.inertia;
+            let slot = &mut slots[r.block];
+            circuit.instances[r.block].block.kinematics(&y[slot.states.clone()], &mut slot.mech);
+            node_mech[node] = slot.mech[mech_index(circuit, r)];
+        }
+        for slot in slots.iter_mut() {
+            for (k, &node) in slot.mech_nodes.iter().enumerate() {
+                slot.mech[k] = node_mech[node];
+            }
+        }
+        // 2. efforts
+        for (bi, slot) in slots.iter_mut().enumerate() {
+            if !slot.has_effort {
+                continue;
+            }
+            let ctx = Ctx { t, gas, states: &y[slot.states.clone()], pneumatic: &slot.gas, mechanical: &slot.mech, signals: &slot.sig };
+            circuit.instances[bi].block.effort(&ctx, &mut slot.gas_out);
+            for (k, &node) in slot.pneu_nodes.iter().enumerate() {
+                if slot.pneu_is_effort[k] {
+                    let s = slot.gas_out[k];
+                    if !(s.p.is_finite() && s.t.is_finite() && s.p > 0.0 && s.t > 0.0) {
+                        return Err(ModelError::NonFinite { t, what: format!("gas state of {} (p = {} Pa, T = {} K)", circuit.instances[bi].id, s.p, s.t) });
+                    }
+                    node_gas[node] = s;
+                }
+            }
+        }
+        gather_gas(slots, node_gas);
+        // 3. signals
+        for &bi in &circuit.signal_order {
+            let slot = &mut slots[bi];
+            for (k, &s) in slot.sig_in.iter().enumerate() {
+                slot.sig[k] = signals[s];
+            }
+            let ctx = Ctx { t, gas, states: &y[slot.states.clone()], pneumatic: &slot.gas, mechanical: &slot.mech, signals: &slot.sig };
+            circuit.instances[bi].block.signal_outputs(&ctx, &mut slot.sig_buf);
+            signals[slot.sig_out.clone()].copy_from_slice(&slot.sig_buf);
+        }
+        for slot in slots.iter_mut() {
+            for (k, &s) in slot.sig_in.iter().enumerate() {
+                slot.sig[k] = signals[s];
+            }
+        }
+        // 4. junction pressures
+        for cluster in &circuit.junction_clusters {
+            junction::solve_cluster(circuit, slots, node_gas, junction_ports, junction_guess, cluster, gas, t, y)?;
+        }
+        // 5. flows
+        for f in node_inflow.iter_mut() {
+            *f = PortFlow::default();
+        }
+        for (bi, slot) in slots.iter_mut().enumerate() {
+            if !slot.has_flow {
+                continue;
+            }
+            let ctx = Ctx { t, gas, states: &y[slot.states.clone()], pneumatic: &slot.gas, mechanical: &slot.mech, signals: &slot.sig };
+            circuit.instances[bi].block.flows(&ctx, &mut slot.flows);
+            for (k, &node) in slot.pneu_nodes.iter().enumerate() {
+                if !slot.pneu_is_effort[k] {
+                    node_inflow[node] += -slot.flows[k];
+                }
+            }
+        }
+        for slot in slots.iter_mut() {
+            for (k, &node) in slot.pneu_nodes.iter().enumerate() {
+                slot.bal_flow[k] = if slot.pneu_is_effort[k] { node_inflow[node] } else { slot.flows[k] };
+            }
+        }
+        // 6. forces and node motion
+        for f in node_forces.iter_mut() {
+            *f = NodeForces::default();
+        }
+        for (bi, slot) in slots.iter_mut().enumerate() {
+            if slot.mech_nodes.is_empty() {
+                continue;
+            }
+            let ctx = Ctx { t, gas, states: &y[slot.states.clone()], pneumatic: &slot.gas, mechanical: &slot.mech, signals: &slot.sig };
+            circuit.instances[bi].block.forces(&ctx, &mut slot.forces);
+            for (k, &node) in slot.mech_nodes.iter().enumerate() {
+                let f = slot.forces[k];
+                node_forces[node].applied += f.applied;
+                if let Some(dry) = f.friction {
+                    node_forces[node].sliding += dry.sliding;
+                    node_forces[node].breakaway += dry.breakaway;
+                }
+            }
+        }
+        for (node, mn) in circuit.mechanical_nodes.iter().enumerate() {
+            let r = mn.inertia;
+            let mass = circuit.instances[r.block].block.inertia();
+            let accel = mechanics::acceleration(modes[node], &node_forces[node], mass);
+            if !accel.is_finite() {
+                return Err(ModelError::NonFinite { t, what: format!("acceleration of {}", circuit.instances[r.block].id) });
+            }
+            let k = mech_index(circuit, r);
+            slots[r.block].motion[k] = Motion { accel };
+        }
+        // 7. derivatives, quadratures
+        if let Some(dy) = dy {
+            let nq = dy.len() - N_QUADRATURE;
+            let mut quad = [0.0; N_QUADRATURE];
+            for (bi, slot) in slots.iter().enumerate() {
+                let block = &circuit.instances[bi].block;
+                let ctx = Ctx { t, gas, states: &y[slot.states.clone()], pneumatic: &slot.gas, mechanical: &slot.mech, signals: &slot.sig };
+                let bal = Balances { pneumatic: &slot.bal_flow, mechanical: &slot.motion };
+                if !slot.states.is_empty() {
+                    block.derivatives(&ctx, &bal, &mut dy[slot.states.clone()]);
+                    let ex = block.exchange(&ctx, &bal);
+                    quad[2] += ex.heat;
+                    quad[3] += ex.work;
+                } else {
+                    // stateless blocks: what they pass into the circuit crosses its boundary
+                    for f in &slot.bal_flow {
+                        quad[0] -= f.mdot;
+                        quad[1] -= f.edot;
+                    }
+                }
+            }
+            dy[nq..].copy_from_slice(&quad);
+            for (i, d) in dy.iter().enumerate() {
+                if !d.is_finite() {
+                    return Err(ModelError::NonFinite { t, what: format!("derivative of state {}", self_state_name(circuit, slots, i)) });
+                }
+            }
+        }
+        // 8. root functions
+        if let Some(g) = g {
+            for (bi, slot) in slots.iter().enumerate() {
+                if slot.events.is_empty() {
+                    continue;
+                }
+                let ctx = Ctx { t, gas, states: &y[slot.states.clone()], pneumatic: &slot.gas, mechanical: &slot.mech, signals: &slot.sig };
+                circuit.instances[bi].block.event_functions(&ctx, &mut g[slot.events.clone()]);
+            }
+            let base = slots.last().map(|s| s.events.end).unwrap_or(0);
+            for (node, mn) in circuit.mechanical_nodes.iter().enumerate() {
+                let stops = circuit.instances[mn.inertia.block].block.stops();
+                let m = node_mech[node];
+                let out = &mut g[base + node * mechanics::N_ROOTS..base + (node + 1) * mechanics::N_ROOTS];
+                mechanics::roots(modes[node], m.x, m.v, &node_forces[node], stops, out);
+            }
+        }
+        Ok(())
+    }
+
+    /// Context of block `bi` from the buffers of the last evaluation.
+    pub fn ctx<'a>(&'a self, bi: usize, t: f64, y: &'a [f64]) -> Ctx<'a> {
+        let slot = &self.slots[bi];
+        Ctx { t, gas: &*self.gas, states: &y[slot.states.clone()], pneumatic: &slot.gas, mechanical: &slot.mech, signals: &slot.sig }
+    }
+
+    /// Balances of block `bi` from the last evaluation.
+    pub fn balances(&self, bi: usize) -> Balances<'_> {
+        let slot = &self.slots[bi];
+        Balances { pneumatic: &slot.bal_flow, mechanical: &slot.motion }
+    }
+
+    /// Names of all recorded columns ("id.signal"), in order.
+    pub fn output_names(&self) -> Vec<String> {
+        let mut names = Vec::with_capacity(self.n_outputs);
+        for inst in &self.circuit.instances {
+            for p in inst.block.ports().iter().filter(|p| p.kind == PortKind::SignalOut) {
+                names.push(format!("{}.{}", inst.id, p.name));
+            }
+            for o in inst.block.outputs() {
+                names.push(format!("{}.{}", inst.id, o.name));
+            }
+        }
+        names
+    }
+
+    /// Units of the recorded columns, aligned with [`Model::output_names`].
+    pub fn output_units(&self) -> Vec<String> {
+        let mut units = Vec::with_capacity(self.n_outputs);
+        for inst in &self.circuit.instances {
+            for p in inst.block.ports().iter().filter(|p| p.kind == PortKind::SignalOut) {
+                let unit = p.doc.rsplit_once('[').and_then(|(_, u)| u.strip_suffix(']')).unwrap_or("");
+                units.push(unit.to_string());
+            }
+            for o in inst.block.outputs() {
+                units.push(o.unit.to_string());
+            }
+        }
+        units
+    }
+
+    /// Recorded outputs at (t, y): evaluates the model, then asks every block.
+    pub fn record(&mut self, t: f64, y: &[f64], row: &mut [Option<f64>]) -> Result<(), ModelError> {
+        let mut dy = vec![0.0; self.dim()];
+        self.eval(t, y, Some(&mut dy), None)?;
+        for (bi, slot) in self.slots.iter().enumerate() {
+            let block = &self.circuit.instances[bi].block;
+            let n_sig = slot.sig_out.len();
+            let out = &mut row[slot.outputs.clone()];
+            for (k, s) in slot.sig_out.clone().enumerate() {
+                out[k] = Some(self.signals[s]);
+            }
+            let ctx = self.ctx(bi, t, y);
+            let bal = self.balances(bi);
+            block.record(&ctx, &bal, &dy[slot.states.clone()], &mut out[n_sig..]);
+        }
+        for v in row.iter_mut() {
+            if matches!(v, Some(x) if !x.is_finite()) {
+                *v = None;
+            }
+        }
+        Ok(())
+    }
+
+    /// Gas mass and internal energy stored in all capacities (after an eval at y).
+    pub fn stored(&self, t: f64, y: &[f64]) -> Stored {
+        let mut total = Stored::default();
+        for bi in 0..self.slots.len() {
+            if let Some(s) = self.circuit.instances[bi].block.stored(&self.ctx(bi, t, y)) {
+                total.mass += s.mass;
+                total.energy += s.energy;
+            }
+        }
+        total
+    }
+}
+
+fn self_state_name(circuit: &Circuit, slots: &[Slot], i: usize) -> String {
+    for (bi, slot) in slots.iter().enumerate() {
+        if slot.states.contains(&i) {
+            let inst = &circuit.instances[bi];
+            return format!("{}.{}", inst.id, inst.block.states()[i - slot.states.start].name);
+        }
+    }
+    format!("balance quadrature {}", i)
+}
+
+/// Copy node gas states into every block's pneumatic buffer.
+pub(crate) fn gather_gas(slots: &mut [Slot], node_gas: &[GasState]) {
+    for slot in slots.iter_mut() {
+        for (k, &node) in slot.pneu_nodes.iter().enumerate() {
+            slot.gas[k] = node_gas[node];
+        }
+    }
+}
+
+/// Index of a port among its block's pneumatic ports.
+pub(crate) fn pneumatic_index(c: &Circuit, r: PortRef) -> usize {
+    c.instances[r.block].block.ports()[..r.port].iter().filter(|p| p.kind.domain() == Domain::Pneumatic).count()
+}
+
+/// Index of a port among its block's mechanical ports.
+pub(crate) fn mech_index(c: &Circuit, r: PortRef) -> usize {
+    c.instances[r.block].block.ports()[..r.port].iter().filter(|p| p.kind.domain() == Domain::Mechanical).count()
+}

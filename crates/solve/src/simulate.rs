@@ -1,0 +1,356 @@
+//! The hybrid simulation loop: integrate until a root or a time event, hand
+//! the event to the blocks and node logic, restart; sample results along the
+//! way from the integrator's dense output.
+
+use crate::mechanics::{self, Mode};
+use crate::model::{Model, ModelError, N_QUADRATURE};
+use blocks::block::{CycleRecord, EventKind, MechState};
+use ode::{Advance, Dense, Integrator, IntegratorError, OdeSystem, Options, RhsError, Rosenbrock};
+
+/// Settings of one run, in SI.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SimOptions {
+    /// End time [s]; the run also ends when the requested cycles are done.
+    pub t_end: f64,
+    /// Stop after this many completed cycles.
+    pub cycles: Option<u64>,
+    pub rtol: f64,
+    /// Absolute tolerance relative to each state's typical size.
+    pub atol: f64,
+    /// Output sample interval [s] (0 = only event instants and step ends).
+    pub sample_interval: f64,
+    /// Largest step [s].
+    pub max_step: f64,
+    /// Safety limit on the number of discrete events.
+    pub max_events: usize,
+}
+
+impl Default for SimOptions {
+    fn default() -> Self {
+        SimOptions { t_end: 10.0, cycles: None, rtol: 1e-6, atol: 1e-6, sample_interval: 1e-3, max_step: 0.05, max_events: 100_000 }
+    }
+}
+
+/// A discrete event that happened.
+#[derive(Debug, Clone, PartialEq)]
+pub struct EventLog {
+    pub t: f64,
+    pub what: String,
+}
+
+/// Mass and energy balance of the gas over the run.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct Balance {
+    pub mass_initial: f64,
+    pub mass_final: f64,
+    /// Mass that entered through sources [kg].
+    pub mass_in: f64,
+    /// (m_final − m_initial − m_in) / max(m_initial, m_final).
+    pub mass_residual: f64,
+    pub energy_initial: f64,
+    pub energy_final: f64,
+    /// Energy that entered through sources (enthalpy flow) [J].
+    pub energy_in: f64,
+    /// Heat from the walls into the gas [J].
+    pub heat_in: f64,
+    /// Boundary work done by the gas on the pistons [J].
+    pub work_out: f64,
+    /// (U_final − U_initial − E_in − Q + W) / max(|U|, |E_in|, |Q|, |W|).
+    pub energy_residual: f64,
+}
+
+/// Everything a run produced.
+#[derive(Debug, Clone)]
+pub struct SimResult {
+    pub columns: Vec<String>,
+    pub units: Vec<String>,
+    pub times: Vec<f64>,
+    /// One row per time; `None` = undefined at that instant.
+    pub rows: Vec<Vec<Option<f64>>>,
+    pub cycles: Vec<CycleRecord>,
+    pub events: Vec<EventLog>,
+    pub balance: Balance,
+    pub t_final: f64,
+    pub stats: ode::Stats,
+    pub rhs_evaluations: u64,
+}
+
+impl SimResult {
+    /// Column index by name.
+    pub fn column(&self, name: &str) -> Option<usize> {
+        self.columns.iter().position(|c| c == name)
+    }
+    /// A whole column as (t, value) pairs, skipping undefined values.
+    pub fn series(&self, name: &str) -> Option<Vec<(f64, f64)>> {
+        let c = self.column(name)?;
+        Some(self.times.iter().zip(&self.rows).filter_map(|(t, r)| r[c].map(|v| (*t, v))).collect())
+    }
+}
+
+/// Why a run failed.
+#[derive(Debug, thiserror::Error)]
+pub enum SolveError {
+    #[error("{0}")]
+    Model(#[from] ModelError),
+    #[error("integration failed: {0}")]
+    Integrator(#[from] IntegratorError),
+    #[error("more than {limit} events by t = {t} s (chattering between modes?)")]
+    TooManyEvents { t: f64, limit: usize },
+    #[error("invalid settings: {0}")]
+    Settings(String),
+}
+
+/// The model seen by the integrator.
+struct System<'a> {
+    model: &'a mut Model,
+    error: Option<ModelError>,
+}
+
+impl OdeSystem for System<'_> {
+    fn dim(&self) -> usize {
+        self.model.dim()
+    }
+    fn rhs(&mut self, t: f64, y: &[f64], dydt: &mut [f64]) -> Result<(), RhsError> {
+        self.model.eval(t, y, Some(dydt), None).map_err(|e| {
+            let msg = e.to_string();
+            self.error = Some(e);
+            RhsError(msg)
+        })
+    }
+    fn n_roots(&self) -> usize {
+        self.model.n_roots()
+    }
+    fn roots(&mut self, t: f64, y: &[f64], g: &mut [f64]) -> Result<(), RhsError> {
+        self.model.eval(t, y, None, Some(g)).map_err(|e| {
+            let msg = e.to_string();
+            self.error = Some(e);
+            RhsError(msg)
+        })
+    }
+}
+
+/// Run the model from its initial state.
+pub fn simulate(model: &mut Model, opts: &SimOptions) -> Result<SimResult, SolveError> {
+    if !(opts.t_end > 0.0 && opts.t_end.is_finite()) {
+        return Err(SolveError::Settings(format!("end time must be > 0 s, got {}", opts.t_end)));
+    }
+    if !(opts.rtol > 0.0 && opts.rtol < 1.0 && opts.atol > 0.0) {
+        return Err(SolveError::Settings(format!("tolerances must be in (0, 1): rtol {} atol {}", opts.rtol, opts.atol)));
+    }
+    let mut y = model.initial_state();
+    let n = model.dim();
+    let scales = model.state_scales(&y);
+    let mut atol: Vec<f64> = scales.iter().map(|s| opts.atol * s).collect();
+    for a in atol[n - N_QUADRATURE..].iter_mut() {
+        *a = 1e30; // balance quadratures do not steer the step size
+    }
+    let options = Options {
+        rtol: opts.rtol,
+        atol,
+        h_init: None,
+        h_max: opts.max_step,
+        h_min: 1e-14,
+        max_steps: 50_000_000,
+        root_tol: 1e-12,
+    };
+    let mut integrator = Rosenbrock::new(options, n);
+    let mut t = 0.0;
+    let mut result = SimResult {
+        columns: model.output_names(),
+        units: model.output_units(),
+        times: Vec::new(),
+        rows: Vec::new(),
+        cycles: Vec::new(),
+        events: Vec::new(),
+        balance: Balance::default(),
+        t_final: 0.0,
+        stats: Default::default(),
+        rhs_evaluations: 0,
+    };
+
+    // initial modes: at rest where v = 0, then break away if the forces say so
+    model.eval(t, &y, None, None)?;
+    for node in 0..model.circuit.mechanical_nodes.len() {
+        let m = model.node_mech[node];
+        let stops = model.circuit.instances[model.circuit.mechanical_nodes[node].inertia.block].block.stops();
+        model.modes[node] = if m.v == 0.0 { mechanics::held_at(m.x, stops) } else { Mode::Sliding { dir: m.v.signum() } };
+    }
+    settle(model, t, &mut y, &mut result.events)?;
+    model.eval(t, &y, None, None)?;
+    let initial = model.stored(t, &y);
+    record(model, t, &y, &mut result)?;
+
+    let mut next_sample = opts.sample_interval;
+    let mut n_events = 0usize;
+    let mut finished = false;
+    while !finished {
+        let t_time_event = model
+            .circuit
+            .instances
+            .iter()
+            .filter_map(|i| i.block.next_time_event(t))
+            .fold(f64::INFINITY, f64::min);
+        let t_stop = opts.t_end.min(t_time_event);
+        let mut samples: Vec<(f64, Vec<f64>)> = Vec::new();
+        let advance = {
+            let mut sys = System { model, error: None };
+            let interval = opts.sample_interval;
+            let mut observer = |d: &dyn Dense| {
+                if interval <= 0.0 {
+                    return;
+                }
+                while next_sample <= d.t_end() + 1e-15 {
+                    let mut ys = vec![0.0; n];
+                    d.eval(next_sample.min(d.t_end()), &mut ys);
+                    samples.push((next_sample, ys));
+                    next_sample += interval;
+                    // avoid drift: snap to the grid
+                    next_sample = (next_sample / interval).round() * interval;
+                }
+            };
+            let r = integrator.advance(&mut sys, &mut t, &mut y, t_stop, &mut observer);
+            match (r, sys.error.take()) {
+                (Ok(a), _) => a,
+                (Err(_), Some(model_error)) => return Err(model_error.into()),
+                (Err(e), None) => return Err(e.into()),
+            }
+        };
+        for (ts, ys) in samples {
+            if ts < t - 1e-15 || ts <= t {
+                record(model, ts, &ys, &mut result)?;
+            }
+        }
+        let mut handled = false;
+        match advance {
+            Advance::Reached => {
+                if t >= opts.t_end {
+                    finished = true;
+                } else {
+                    model.eval(t, &y, None, None)?;
+                    for bi in 0..model.circuit.instances.len() {
+                        let due = model.circuit.instances[bi].block.next_time_event(t - 1e-12 * t.max(1.0));
+                        if matches!(due, Some(d) if (d - t).abs() <= 1e-12 * t.max(1.0)) {
+                            handle_block_event(model, bi, EventKind::Time, t, &y, &mut result)?;
+                            handled = true;
+                        }
+                    }
+                }
+            }
+            Advance::Root { indices } => {
+                model.eval(t, &y, None, None)?;
+                for (bi, slot) in model.slots.clone().iter().enumerate() {
+                    for (k, idx) in slot.events.clone().enumerate() {
+                        if indices.contains(&idx) {
+                            handle_block_event(model, bi, EventKind::Crossing(k), t, &y, &mut result)?;
+                            handled = true;
+                        }
+                    }
+                }
+                handled = true;
+            }
+        }
+        if handled {
+            n_events += 1;
+            if n_events > opts.max_events {
+                return Err(SolveError::TooManyEvents { t, limit: opts.max_events });
+            }
+            settle(model, t, &mut y, &mut result.events)?;
+            integrator.reset();
+            record(model, t, &y, &mut result)?;
+        }
+        if let Some(n) = opts.cycles {
+            if result.cycles.len() as u64 >= n {
+                finished = true;
+            }
+        }
+        if model.circuit.instances.iter().any(|i| i.block.finished()) {
+            finished = true;
+        }
+    }
+    if result.times.last() != Some(&t) {
+        record(model, t, &y, &mut result)?;
+    }
+    model.eval(t, &y, None, None)?;
+    let last = model.stored(t, &y);
+    let q = &y[n - N_QUADRATURE..];
+    let (mass_in, energy_in, heat_in, work_out) = (q[0], q[1], q[2], q[3]);
+    let mass_scale = initial.mass.max(last.mass).max(f64::MIN_POSITIVE);
+    let energy_scale = [initial.energy, last.energy, energy_in, heat_in, work_out].iter().fold(f64::MIN_POSITIVE, |a, b| a.max(b.abs()));
+    result.balance = Balance {
+        mass_initial: initial.mass,
+        mass_final: last.mass,
+        mass_in,
+        mass_residual: (last.mass - initial.mass - mass_in) / mass_scale,
+        energy_initial: initial.energy,
+        energy_final: last.energy,
+        energy_in,
+        heat_in,
+        work_out,
+        energy_residual: (last.energy - initial.energy - energy_in - heat_in + work_out) / energy_scale,
+    };
+    result.t_final = t;
+    result.stats = integrator.stats();
+    result.rhs_evaluations = model.evaluations;
+    Ok(result)
+}
+
+fn handle_block_event(model: &mut Model, bi: usize, kind: EventKind, t: f64, y: &[f64], result: &mut SimResult) -> Result<(), SolveError> {
+    // the context must outlive the mutable borrow of the block: copy the buffers
+    let slot = model.slots[bi].clone();
+    let gas = model.gas.clone();
+    let ctx = blocks::block::Ctx { t, gas: &*gas, states: &y[slot.states.clone()], pneumatic: &slot.gas, mechanical: &slot.mech, signals: &slot.sig };
+    let inst = &mut model.circuit.instances[bi];
+    let outcome = inst.block.on_event(kind, &ctx);
+    if let Some(note) = outcome.note {
+        result.events.push(EventLog { t, what: format!("{}: {note}", inst.id) });
+    }
+    if let Some(c) = outcome.cycle {
+        result.cycles.push(c);
+    }
+    Ok(())
+}
+
+/// Apply node transitions until no node changes mode (bounded).
+fn settle(model: &mut Model, t: f64, y: &mut [f64], log: &mut Vec<EventLog>) -> Result<(), SolveError> {
+    for _ in 0..8 {
+        model.eval(t, y, None, None)?;
+        let mut changed = false;
+        for node in 0..model.circuit.mechanical_nodes.len() {
+            let r = model.circuit.mechanical_nodes[node].inertia;
+            let stops = model.circuit.instances[r.block].block.stops();
+            let m = model.node_mech[node];
+            let f = model.node_forces[node];
+            if let Some(tr) = mechanics::transition(model.modes[node], m.x, m.v, &f, stops) {
+                if let Some((x, v)) = tr.reset {
+                    let states = model.slots[r.block].states.clone();
+                    model.circuit.instances[r.block].block.reset_motion(&mut y[states], MechState { x, v });
+                }
+                let id = &model.circuit.instances[r.block].id;
+                let what = match tr.mode {
+                    Mode::Sliding { dir } if dir > 0.0 => "sliding, extending",
+                    Mode::Sliding { .. } => "sliding, retracting",
+                    Mode::Held { may_extend: false, .. } => "at the upper stop",
+                    Mode::Held { may_retract: false, .. } => "at the lower stop",
+                    Mode::Held { .. } => "stuck",
+                };
+                if tr.mode != model.modes[node] || tr.reset.is_some() {
+                    log.push(EventLog { t, what: format!("{id}: {what}") });
+                    changed = true;
+                }
+                model.modes[node] = tr.mode;
+            }
+        }
+        if !changed {
+            return Ok(());
+        }
+    }
+    Ok(())
+}
+
+fn record(model: &mut Model, t: f64, y: &[f64], result: &mut SimResult) -> Result<(), SolveError> {
+    let mut row = vec![None; model.n_outputs];
+    model.record(t, y, &mut row)?;
+    result.times.push(t);
+    result.rows.push(row);
+    Ok(())
+}
