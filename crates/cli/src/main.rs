@@ -6,8 +6,10 @@ mod check;
 mod error;
 mod load;
 mod output;
+mod plot;
 mod run;
 mod simulate;
+mod sweep;
 
 use clap::{Parser, Subcommand};
 use std::process::ExitCode;
@@ -26,6 +28,12 @@ enum Command {
     Check(check::CheckArgs),
     /// Simulate a netlist and write traces, a summary and plots.
     Simulate(simulate::SimulateArgs),
+    /// Run a full-factorial parameter study in parallel.
+    Sweep(sweep::SweepArgs),
+    /// Join the outputs of sweep shards into one file.
+    Merge(sweep::MergeArgs),
+    /// Plot signals from result CSV files, or a sweep.
+    Plot(plot::PlotArgs),
     /// Print the JSON Schema of the netlist format.
     Schema,
     /// List the block types and their parameters.
@@ -37,6 +45,9 @@ fn main() -> ExitCode {
     let result = match cli.command {
         Command::Check(a) => check::run(&a),
         Command::Simulate(a) => simulate::run(&a),
+        Command::Sweep(a) => sweep::run(&a),
+        Command::Merge(a) => sweep::merge(&a),
+        Command::Plot(a) => plot::run(&a),
         Command::Schema => {
             println!("{}", serde_json::to_string_pretty(&graph::netlist::schema()).unwrap_or_default());
             Ok(())

@@ -24,6 +24,9 @@ pub struct SimulateArgs {
     /// Write the summary (JSON).
     #[arg(long, value_name = "FILE.json")]
     pub summary: Option<PathBuf>,
+    /// Plot the written signals (PNG or SVG by extension).
+    #[arg(long, value_name = "FILE.png|FILE.svg")]
+    pub plot: Option<std::path::PathBuf>,
     /// Signals to write (default: the netlist's outputs, or all).
     #[arg(long = "signals", value_delimiter = ',')]
     pub signals: Vec<String>,
@@ -41,6 +44,13 @@ pub fn run(a: &SimulateArgs) -> Result<(), CliError> {
         .summary
         .as_ref()
         .map(|_| serde_json::to_string_pretty(&summary(&r.result, &r.name, &all)).unwrap_or_default());
+    let plot_bytes = match &a.plot {
+        Some(path) => Some(crate::plot::traces_image(&r.result, &columns, path)?),
+        None => None,
+    };
+    if let (Some(path), Some(bytes)) = (&a.plot, plot_bytes) {
+        write_atomic(path, &bytes)?;
+    }
     if let (Some(path), Some(text)) = (&a.out, csv_text) {
         write_atomic(path, text.as_bytes())?;
     }
