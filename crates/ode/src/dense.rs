@@ -29,7 +29,8 @@ impl StepDense<'_> {
         let theta = if h != 0.0 { (t - self.t0) / h } else { 1.0 };
         let s1 = 1.0 - theta;
         for (i, o) in out.iter_mut().enumerate().take(self.y0.len()) {
-            *o = s1 * self.y0[i] + theta * (self.y1[i] + s1 * (self.q1[i] + theta * self.q2[i]));
+            // written around y0 so that a state that does not change is returned bit-exactly
+            *o = self.y0[i] + theta * ((self.y1[i] - self.y0[i]) + s1 * (self.q1[i] + theta * self.q2[i]));
         }
     }
 }

@@ -10,8 +10,8 @@
 //! Provided integrator: [`Rosenbrock`], the L-stable, stiffly accurate 4th-order
 //! Rosenbrock method RODAS4 with an embedded 3rd-order error estimate and a
 //! 3rd-order dense output (E. Hairer & G. Wanner, *Solving Ordinary Differential
-//! Equations II*, 2nd ed., Springer 1996, §IV.7, Table 7.4 and eq. (7.25) onwards;
-//! see `rodas4.rs` for the coefficient table and its sources).
+//! Equations II*, 2nd ed., Springer 1996, §IV.7; see `rodas4.rs` for the
+//! coefficient table and its sources).
 //!
 //! Units: the crate is unit-agnostic; `t` and step sizes are in the unit of the
 //! model's independent variable (seconds in `pneumo`), tolerances are in the units
@@ -25,9 +25,48 @@
 //!   O(n³) LU factorisation).
 //! * Integration may go forwards or backwards in `t`.
 //!
+//! Typical use (a bouncing ball; the event is the height crossing zero):
+//! ```
+//! use ode::{Advance, Integrator, OdeSystem, Options, RhsError, Rosenbrock};
+//! struct Ball;
+//! impl OdeSystem for Ball {
+//!     fn dim(&self) -> usize { 2 }
+//!     fn rhs(&mut self, _t: f64, y: &[f64], d: &mut [f64]) -> Result<(), RhsError> {
+//!         d[0] = y[1];
+//!         d[1] = -9.81;
+//!         Ok(())
+//!     }
+//!     fn n_roots(&self) -> usize { 1 }
+//!     fn roots(&mut self, _t: f64, y: &[f64], g: &mut [f64]) -> Result<(), RhsError> {
+//!         g[0] = y[0];
+//!         Ok(())
+//!     }
+//! }
+//! let mut int = Rosenbrock::new(Options::with_tolerances(1e-8, 1e-10, 2), 2);
+//! let (mut t, mut y) = (0.0, vec![10.0, 0.0]);
+//! let mut bounces = 0;
+//! while t < 5.0 {
+//!     match int.advance(&mut Ball, &mut t, &mut y, 5.0, &mut |_dense| {})? {
+//!         Advance::Reached => {}
+//!         Advance::Root { .. } => {
+//!             bounces += 1;
+//!             y[0] = 0.0; // the zero at the restart point is not an event
+//!             y[1] = -0.8 * y[1];
+//!             int.reset();
+//!         }
+//!     }
+//! }
+//! assert_eq!(bounces, 2); // impacts at 1.428 s and 3.713 s (the third would be at 5.54 s)
+//! # Ok::<(), ode::IntegratorError>(())
+//! ```
+//!
 //! Modules: `lu` (in-place dense LU with partial pivoting on an `nalgebra::DMatrix`),
 //! `rodas4` (coefficients), `dense` (dense output), `roots` (event location),
 //! `rosenbrock` (the integrator and its step-size controller).
+
+// Numerical kernels below index several parallel arrays with one loop variable;
+// iterator chains would obscure the formulas.
+#![allow(clippy::needless_range_loop)]
 
 mod dense;
 mod lu;
@@ -52,6 +91,13 @@ pub trait OdeSystem {
     fn dim(&self) -> usize;
     /// dy/dt = f(t, y).
     fn rhs(&mut self, t: f64, y: &[f64], dydt: &mut [f64]) -> Result<(), RhsError>;
+    /// Number of trailing quadrature components: the last `k` entries of `y`
+    /// are integrals that no derivative depends on (balances, costs). Their
+    /// Jacobian columns are zero, so they are not perturbed (as CVODES treats
+    /// quadratures). Default 0.
+    fn n_quadrature(&self) -> usize {
+        0
+    }
     /// Number of root (event) functions.
     fn n_roots(&self) -> usize {
         0
@@ -94,25 +140,13 @@ impl Options {
     /// Options with the given relative tolerance and the same absolute tolerance
     /// for all `dim` states; everything else as in [`Default`].
     pub fn with_tolerances(rtol: f64, atol: f64, dim: usize) -> Self {
-        Self {
-            rtol,
-            atol: vec![atol; dim],
-            ..Self::default()
-        }
+        Self { rtol, atol: vec![atol; dim], ..Self::default() }
     }
 }
 
 impl Default for Options {
     fn default() -> Self {
-        Self {
-            rtol: 1e-6,
-            atol: Vec::new(),
-            h_init: None,
-            h_max: f64::INFINITY,
-            h_min: 0.0,
-            max_steps: 100_000,
-            root_tol: 1e-10,
-        }
+        Self { rtol: 1e-6, atol: Vec::new(), h_init: None, h_max: f64::INFINITY, h_min: 0.0, max_steps: 100_000, root_tol: 1e-10 }
     }
 }
 

@@ -28,10 +28,7 @@ pub(crate) struct Singular;
 impl LuFactors {
     /// Work space for `n × n` matrices.
     pub(crate) fn new(n: usize) -> Self {
-        Self {
-            a: DMatrix::zeros(n, n),
-            piv: vec![0; n],
-        }
+        Self { a: DMatrix::zeros(n, n), piv: vec![0; n] }
     }
 
     /// Mutable access to the matrix to be factored (fill it, then call [`Self::factor`]).
@@ -126,19 +123,13 @@ mod tests {
             ],
         );
         let x_true = [1.5, -2.0, 0.75, 3.0];
-        let b: Vec<f64> = (0..4)
-            .map(|i| (0..4).map(|j| m[(i, j)] * x_true[j]).sum())
-            .collect();
+        let b: Vec<f64> = (0..4).map(|i| (0..4).map(|j| m[(i, j)] * x_true[j]).sum()).collect();
         let mut lu = LuFactors::new(4);
         lu.matrix_mut().copy_from(&m);
         lu.factor().expect("regular matrix");
         let mut x = b.clone();
         lu.solve(&mut x);
-        let reference = m
-            .clone()
-            .lu()
-            .solve(&nalgebra::DVector::from_vec(b))
-            .expect("regular");
+        let reference = m.clone().lu().solve(&nalgebra::DVector::from_vec(b)).expect("regular");
         for i in 0..4 {
             assert!((x[i] - x_true[i]).abs() < 1e-13, "x[{i}] = {}", x[i]);
             assert!((x[i] - reference[i]).abs() < 1e-13);

@@ -20,6 +20,9 @@ pub(crate) fn changed(g_start: f64, g: f64) -> bool {
     g_start != 0.0 && (g == 0.0 || (g > 0.0) != (g_start > 0.0))
 }
 
+/// Evaluator of the root functions at a time: `eval(t, g)`.
+pub(crate) type RootEval<'a, E> = dyn FnMut(f64, &mut [f64]) -> Result<(), E> + 'a;
+
 /// Buffers for the bracketing iteration (allocated once).
 #[derive(Debug, Clone)]
 pub(crate) struct RootFinder {
@@ -31,11 +34,7 @@ pub(crate) struct RootFinder {
 
 impl RootFinder {
     pub(crate) fn new(n_roots: usize) -> Self {
-        Self {
-            g_lo: vec![0.0; n_roots],
-            g_hi: vec![0.0; n_roots],
-            g_mid: vec![0.0; n_roots],
-        }
+        Self { g_lo: vec![0.0; n_roots], g_hi: vec![0.0; n_roots], g_mid: vec![0.0; n_roots] }
     }
 
     /// Resize the buffers if the number of root functions changed (rare; allocates).
@@ -56,7 +55,7 @@ impl RootFinder {
         g_start: &[f64],
         g_end: &[f64],
         tol: f64,
-        eval: &mut dyn FnMut(f64, &mut [f64]) -> Result<(), E>,
+        eval: &mut RootEval<'_, E>,
     ) -> Result<f64, E> {
         let m = g_start.len();
         self.g_lo.copy_from_slice(g_start);

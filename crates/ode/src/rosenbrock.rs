@@ -16,8 +16,8 @@
 //!   `err = sqrt(1/n Σ (u6_i / (atol_i + rtol·max(|y0_i|, |y1_i|)))²)`; a step is
 //!   accepted when `err ≤ 1`.
 //! * Step size: `h_new = h·min(6, max(0.2, 0.9·err^(−1/4)))`, combined on acceptance
-//!   with the predictive controller of Gustafsson (Hairer & Wanner II, §IV.8,
-//!   eq. (8.21)) as in RODAS; no increase right after a rejection; `|h| ≤ h_max`;
+//!   with the predictive controller of Gustafsson (K. Gustafsson, ACM TOMS 20
+//!   (1994) 496–517; Hairer & Wanner II, §IV.8) as in RODAS; no increase right after a rejection; `|h| ≤ h_max`;
 //!   the last step is clipped to hit `t_stop` exactly.
 //! * Initial step (when neither `h_init` nor a hint is known): the estimate of
 //!   Hairer, Nørsett & Wanner, *Solving ODEs I*, §II.4 (one explicit Euler probe).
@@ -84,6 +84,9 @@ pub struct Rosenbrock {
     q2: Vec<f64>,
     y_root: Vec<f64>,
     g1: Vec<f64>,
+    g_ref: Vec<f64>,
+    g_probe: Vec<f64>,
+    g_ret: Vec<f64>,
     jac: DMatrix<f64>,
     lu: LuFactors,
     root_finder: RootFinder,
@@ -102,17 +105,17 @@ impl Rosenbrock {
     /// non-finite tolerances are replaced by small positive ones.
     pub fn new(options: Options, dim: usize) -> Self {
         let mut opts = options;
-        if !(opts.rtol.is_finite() && opts.rtol > 0.0) {
+        if !opts.rtol.is_finite() || opts.rtol <= 0.0 {
             opts.rtol = 1e-6;
         }
         opts.rtol = opts.rtol.max(10.0 * f64::EPSILON);
-        if !(opts.h_max > 0.0) {
+        if opts.h_max.is_nan() || opts.h_max <= 0.0 {
             opts.h_max = f64::INFINITY;
         }
-        if !(opts.h_min.is_finite() && opts.h_min >= 0.0) {
+        if !opts.h_min.is_finite() || opts.h_min < 0.0 {
             opts.h_min = 0.0;
         }
-        if !(opts.root_tol.is_finite() && opts.root_tol > 0.0) {
+        if !opts.root_tol.is_finite() || opts.root_tol <= 0.0 {
             opts.root_tol = 1e-10;
         }
         let mut me = Self {
@@ -135,6 +138,9 @@ impl Rosenbrock {
             q2: Vec::new(),
             y_root: Vec::new(),
             g1: Vec::new(),
+            g_ref: Vec::new(),
+            g_probe: Vec::new(),
+            g_ret: Vec::new(),
             jac: DMatrix::zeros(0, 0),
             lu: LuFactors::new(0),
             root_finder: RootFinder::new(0),
@@ -180,21 +186,12 @@ impl Rosenbrock {
     }
 
     fn resize(&mut self, dim: usize) {
-        let last = self
-            .opts
-            .atol
-            .last()
-            .copied()
-            .unwrap_or(Options::DEFAULT_ATOL);
+        let last = self.opts.atol.last().copied().unwrap_or(Options::DEFAULT_ATOL);
         self.opts.atol.resize(dim.max(self.opts.atol.len()), last);
         self.opts.atol.truncate(dim);
         for a in self.opts.atol.iter_mut() {
-            if !(a.is_finite() && *a > 0.0) {
-                *a = if a.is_finite() && *a < 0.0 {
-                    -*a
-                } else {
-                    f64::MIN_POSITIVE
-                };
+            if !a.is_finite() || *a <= 0.0 {
+                *a = if a.is_finite() && *a < 0.0 { -*a } else { f64::MIN_POSITIVE };
             }
         }
         self.n = dim;
@@ -221,6 +218,9 @@ impl Rosenbrock {
         if self.g0.len() != m {
             self.g0 = vec![0.0; m];
             self.g1 = vec![0.0; m];
+            self.g_ref = vec![0.0; m];
+            self.g_probe = vec![0.0; m];
+            self.g_ret = vec![0.0; m];
             self.roots_valid = false;
         }
         self.root_finder.ensure_len(m);
@@ -241,21 +241,10 @@ impl Rosenbrock {
     }
 
     /// Initial step magnitude (Hairer–Nørsett–Wanner I, §II.4), using `self.f0` at (t, y).
-    fn initial_step(
-        &mut self,
-        sys: &mut dyn OdeSystem,
-        t: f64,
-        y: &[f64],
-        dir: f64,
-        h_limit: f64,
-    ) -> Result<f64, IntegratorError> {
+    fn initial_step(&mut self, sys: &mut dyn OdeSystem, t: f64, y: &[f64], dir: f64, h_limit: f64) -> Result<f64, IntegratorError> {
         let d0 = self.wrms(y, y);
         let d1 = self.wrms(&self.f0, y);
-        let mut h0 = if d0 < 1e-5 || d1 < 1e-5 {
-            1e-6
-        } else {
-            0.01 * d0 / d1
-        };
+        let mut h0 = if d0 < 1e-5 || d1 < 1e-5 { 1e-6 } else { 0.01 * d0 / d1 };
         h0 = h0.min(h_limit);
         for i in 0..self.n {
             self.ytmp[i] = y[i] + dir * h0 * self.f0[i];
@@ -270,66 +259,84 @@ impl Rosenbrock {
         }
         let d2 = self.wrms(&self.ytmp, y);
         let dm = d1.max(d2);
-        let h1 = if dm <= 1e-15 {
-            (h0 * 1e-3).max(1e-6)
-        } else {
-            (0.01 / dm).powf(0.2)
-        };
-        Ok((100.0 * h0).min(h1).min(h_limit))
+        let h1 = if dm <= 1e-15 { (h0 * 1e-3).max(1e-6) } else { (0.01 / dm).powf(0.2) };
+        let h = (100.0 * h0).min(h1).min(h_limit);
+        Ok(if h.is_finite() && h > 0.0 { h } else { h0 })
     }
 
     /// Finite-difference Jacobian and time derivative at (t, y), using `self.f0`.
-    fn jacobian(
-        &mut self,
-        sys: &mut dyn OdeSystem,
-        t: f64,
-        y: &[f64],
-        h: f64,
-    ) -> Result<(), IntegratorError> {
+    fn jacobian(&mut self, sys: &mut dyn OdeSystem, t: f64, y: &[f64], h: f64) -> Result<(), IntegratorError> {
         let sqrt_eps = f64::EPSILON.sqrt();
         self.ytmp.copy_from_slice(y);
-        for j in 0..self.n {
+        let n_state = self.n - sys.n_quadrature().min(self.n);
+        for j in n_state..self.n {
+            for i in 0..self.n {
+                self.jac[(i, j)] = 0.0;
+            }
+        }
+        for j in 0..n_state {
             let typ = self.opts.atol[j] / self.opts.rtol;
             let mut d = sqrt_eps * y[j].abs().max(typ);
             if d == 0.0 || !d.is_finite() {
                 d = sqrt_eps;
             }
             let yj = y[j];
-            self.ytmp[j] = yj + d;
-            let d = self.ytmp[j] - yj;
-            if let Some(index) = eval_rhs(sys, t, &self.ytmp, &mut self.fs, &mut self.stats)? {
-                return Err(IntegratorError::NonFinite { t, index });
-            }
-            for i in 0..self.n {
-                self.jac[(i, j)] = (self.fs[i] - self.f0[i]) / d;
+            // Forward difference; if f is not finite there (e.g. at the edge of its
+            // domain), fall back to a backward difference.
+            let mut ok = false;
+            let mut bad = 0;
+            for sign in [1.0, -1.0] {
+                self.ytmp[j] = yj + sign * d;
+                let dj = self.ytmp[j] - yj;
+                match eval_rhs(sys, t, &self.ytmp, &mut self.fs, &mut self.stats)? {
+                    None => {
+                        for i in 0..self.n {
+                            self.jac[(i, j)] = (self.fs[i] - self.f0[i]) / dj;
+                        }
+                        ok = true;
+                        break;
+                    }
+                    Some(index) => bad = index,
+                }
             }
             self.ytmp[j] = yj;
+            if !ok {
+                return Err(IntegratorError::NonFinite { t, index: bad });
+            }
         }
         let dir = if h < 0.0 { -1.0 } else { 1.0 };
-        let tp = t + dir * sqrt_eps * t.abs().max(h.abs()).max(f64::MIN_POSITIVE);
-        let dt = tp - t;
-        if dt != 0.0 {
-            if let Some(index) = eval_rhs(sys, tp, y, &mut self.fs, &mut self.stats)? {
-                return Err(IntegratorError::NonFinite { t, index });
+        let dt_mag = sqrt_eps * t.abs().max(h.abs()).max(f64::MIN_POSITIVE);
+        let mut ok = false;
+        let mut bad = None;
+        for sign in [dir, -dir] {
+            let tp = t + sign * dt_mag;
+            let dt = tp - t;
+            if dt == 0.0 {
+                continue;
             }
-            for i in 0..self.n {
-                self.ft[i] = (self.fs[i] - self.f0[i]) / dt;
+            match eval_rhs(sys, tp, y, &mut self.fs, &mut self.stats)? {
+                None => {
+                    for i in 0..self.n {
+                        self.ft[i] = (self.fs[i] - self.f0[i]) / dt;
+                    }
+                    ok = true;
+                    break;
+                }
+                Some(index) => bad = Some(index),
             }
-        } else {
-            self.ft.fill(0.0);
+        }
+        if !ok {
+            match bad {
+                Some(index) => return Err(IntegratorError::NonFinite { t, index }),
+                None => self.ft.fill(0.0), // t cannot be perturbed (not reached in practice)
+            }
         }
         self.stats.jacobians += 1;
         Ok(())
     }
 
     /// One RODAS4 step from (t0, y) to t1; fills `self.y1` and `self.u`.
-    fn attempt(
-        &mut self,
-        sys: &mut dyn OdeSystem,
-        t0: f64,
-        t1: f64,
-        y: &[f64],
-    ) -> Result<Attempt, IntegratorError> {
+    fn attempt(&mut self, sys: &mut dyn OdeSystem, t0: f64, t1: f64, y: &[f64]) -> Result<Attempt, IntegratorError> {
         let n = self.n;
         let h = t1 - t0;
         let inv_hg = 1.0 / (h * GAMMA);
@@ -392,8 +399,7 @@ impl Rosenbrock {
             return Ok(Attempt::NonFinite { t: ts, index });
         }
         for i in 0..n {
-            u4[i] =
-                fs[i] + h * D[3] * ft[i] + inv_h * (C41 * u1[i] + C42 * u2[i] + C43 * u3[i]);
+            u4[i] = fs[i] + h * D[3] * ft[i] + inv_h * (C41 * u1[i] + C42 * u2[i] + C43 * u3[i]);
         }
         lu.solve(u4);
         // Stage 5 (c5 = 1).
@@ -415,9 +421,7 @@ impl Rosenbrock {
             return Ok(Attempt::NonFinite { t: t1, index });
         }
         for i in 0..n {
-            u6[i] = fs[i]
-                + inv_h
-                    * (C61 * u1[i] + C62 * u2[i] + C63 * u3[i] + C64 * u4[i] + C65 * u5[i]);
+            u6[i] = fs[i] + inv_h * (C61 * u1[i] + C62 * u2[i] + C63 * u3[i] + C64 * u4[i] + C65 * u5[i]);
         }
         lu.solve(u6);
         for i in 0..n {
@@ -452,12 +456,7 @@ impl Rosenbrock {
     }
 
     /// Ensure f0 (and g0) correspond to (t, y).
-    fn refresh_cache(
-        &mut self,
-        sys: &mut dyn OdeSystem,
-        t: f64,
-        y: &[f64],
-    ) -> Result<(), IntegratorError> {
+    fn refresh_cache(&mut self, sys: &mut dyn OdeSystem, t: f64, y: &[f64]) -> Result<(), IntegratorError> {
         let same_point = self.cache_valid && t == self.t_cache && y == self.y_cache.as_slice();
         if !same_point {
             if let Some(index) = y.iter().position(|v| !v.is_finite()) {
@@ -496,36 +495,20 @@ impl Rosenbrock {
 }
 
 /// Evaluate f; `Ok(Some(i))` if component `i` is not finite.
-fn eval_rhs(
-    sys: &mut dyn OdeSystem,
-    t: f64,
-    y: &[f64],
-    out: &mut [f64],
-    stats: &mut Stats,
-) -> Result<Option<usize>, IntegratorError> {
+fn eval_rhs(sys: &mut dyn OdeSystem, t: f64, y: &[f64], out: &mut [f64], stats: &mut Stats) -> Result<Option<usize>, IntegratorError> {
     stats.rhs_evals += 1;
-    sys.rhs(t, y, out)
-        .map_err(|source| IntegratorError::Rhs { t, source })?;
+    sys.rhs(t, y, out).map_err(|source| IntegratorError::Rhs { t, source })?;
     Ok(out.iter().position(|v| !v.is_finite()))
 }
 
 /// Evaluate the root functions; a non-finite value is reported as an Rhs error.
-fn eval_roots(
-    sys: &mut dyn OdeSystem,
-    t: f64,
-    y: &[f64],
-    g: &mut [f64],
-) -> Result<(), IntegratorError> {
+fn eval_roots(sys: &mut dyn OdeSystem, t: f64, y: &[f64], g: &mut [f64]) -> Result<(), IntegratorError> {
     if g.is_empty() {
         return Ok(());
     }
-    sys.roots(t, y, g)
-        .map_err(|source| IntegratorError::Rhs { t, source })?;
+    sys.roots(t, y, g).map_err(|source| IntegratorError::Rhs { t, source })?;
     if let Some(i) = g.iter().position(|v| !v.is_finite()) {
-        return Err(IntegratorError::Rhs {
-            t,
-            source: RhsError(format!("root function {i} is not finite")),
-        });
+        return Err(IntegratorError::Rhs { t, source: RhsError(format!("root function {i} is not finite")) });
     }
     Ok(())
 }
@@ -542,11 +525,7 @@ impl Integrator for Rosenbrock {
         if sys.dim() != y.len() {
             return Err(IntegratorError::Rhs {
                 t: *t,
-                source: RhsError(format!(
-                    "dimension mismatch: system has {} states, y has {}",
-                    sys.dim(),
-                    y.len()
-                )),
+                source: RhsError(format!("dimension mismatch: system has {} states, y has {}", sys.dim(), y.len())),
             });
         }
         if y.len() != self.n {
@@ -554,10 +533,7 @@ impl Integrator for Rosenbrock {
         }
         self.resize_roots(sys.n_roots());
         if !t.is_finite() || !t_stop.is_finite() {
-            return Err(IntegratorError::NonFinite {
-                t: *t,
-                index: 0,
-            });
+            return Err(IntegratorError::NonFinite { t: *t, index: 0 });
         }
         if *t == t_stop {
             return Ok(Advance::Reached);
@@ -587,7 +563,9 @@ impl Integrator for Rosenbrock {
                 self.jacobian(sys, *t, y, dir * h)?;
                 self.jac_valid = true;
             }
-            // Clip to t_stop; avoid leaving a sliver shorter than 1e-4·h.
+            // Never below the resolution of t; clip to t_stop (the last step may be
+            // up to 1e-4·h longer than proposed, to avoid leaving a sliver).
+            h = h.max(8.0 * f64::EPSILON * t.abs());
             let remaining = (t_stop - *t).abs();
             let h_unclipped = h;
             let last = h * 1.0001 >= remaining;
@@ -607,6 +585,7 @@ impl Integrator for Rosenbrock {
                             self.stats.rejected += 1;
                             failures += 1;
                             h *= 0.25;
+                            after_reject = true;
                             if self.fixed_h.is_some() || h < floor || failures > MAX_FAILURES {
                                 return Err(IntegratorError::NonFinite { t: t1, index });
                             }
@@ -682,51 +661,57 @@ impl Integrator for Rosenbrock {
             let mut root_at = None;
             if m > 0 {
                 eval_roots(sys, t1, &self.y1, &mut self.g1)?;
-                if (0..m).any(|i| changed(self.g0[i], self.g1[i])) {
-                    let tol = self
-                        .opts
-                        .root_tol
-                        .max(4.0 * f64::EPSILON * t0.abs().max(t1.abs()));
-                    let dense = StepDense {
-                        t0,
-                        t1,
-                        t_end: t1,
-                        y0: y,
-                        y1: &self.y1,
-                        q1: &self.q1,
-                        q2: &self.q2,
-                    };
+                let dense = StepDense { t0, t1, t_end: t1, y0: y, y1: &self.y1, q1: &self.q1, q2: &self.q2 };
+                // Reference values: those at the step start, except that a function
+                // that is exactly zero there (an event just handled) takes its value a
+                // little after the start, so that its next genuine crossing is seen.
+                self.g_ref.copy_from_slice(&self.g0);
+                if self.g0.contains(&0.0) {
+                    let len = (t1 - t0).abs();
+                    let delta = len.min((100.0 * f64::EPSILON * (t0.abs() + len)).max(0.5 * self.opts.root_tol));
+                    let tp = t0 + dir * delta;
+                    dense.interpolate(tp, &mut self.y_root);
+                    eval_roots(sys, tp, &self.y_root, &mut self.g_probe)?;
+                    for i in 0..m {
+                        if self.g0[i] == 0.0 {
+                            self.g_ref[i] = self.g_probe[i];
+                        }
+                    }
+                }
+                if (0..m).any(|i| changed(self.g_ref[i], self.g1[i])) {
+                    let tol = self.opts.root_tol.max(4.0 * f64::EPSILON * t0.abs().max(t1.abs()));
                     let y_root = &mut self.y_root;
-                    let tr = self.root_finder.locate(
-                        t0,
-                        t1,
-                        &self.g0,
-                        &self.g1,
-                        tol,
-                        &mut |tm: f64, g: &mut [f64]| {
-                            dense.interpolate(tm, y_root);
-                            eval_roots(sys, tm, y_root, g)
-                        },
-                    )?;
+                    let mut tr = self.root_finder.locate(t0, t1, &self.g_ref, &self.g1, tol, &mut |tm: f64, g: &mut [f64]| {
+                        dense.interpolate(tm, y_root);
+                        eval_roots(sys, tm, y_root, g)
+                    })?;
+                    self.g_ret.copy_from_slice(&self.root_finder.g_hi);
+                    // Functions that cross within `tol` after the first one are reported
+                    // too; the returned point then moves onto their new side as well.
+                    let pending = (0..m).any(|i| !changed(self.g_ref[i], self.g_ret[i]) && changed(self.g_ref[i], self.g1[i]));
+                    if pending {
+                        let tp = if (t1 - tr).abs() <= tol { t1 } else { tr + dir * tol };
+                        if tp == t1 {
+                            self.g_probe.copy_from_slice(&self.g1);
+                        } else {
+                            dense.interpolate(tp, &mut self.y_root);
+                            eval_roots(sys, tp, &self.y_root, &mut self.g_probe)?;
+                        }
+                        let keeps_first = (0..m).all(|i| !changed(self.g_ref[i], self.g_ret[i]) || changed(self.g_ref[i], self.g_probe[i]));
+                        if keeps_first {
+                            tr = tp;
+                            std::mem::swap(&mut self.g_ret, &mut self.g_probe);
+                        }
+                    }
                     root_at = Some(tr);
                 }
             }
 
             if let Some(tr) = root_at {
-                let dense = StepDense {
-                    t0,
-                    t1,
-                    t_end: tr,
-                    y0: y,
-                    y1: &self.y1,
-                    q1: &self.q1,
-                    q2: &self.q2,
-                };
+                let dense = StepDense { t0, t1, t_end: tr, y0: y, y1: &self.y1, q1: &self.q1, q2: &self.q2 };
                 dense.interpolate(tr, &mut self.y_root);
                 observer(&dense);
-                let indices: Vec<usize> = (0..m)
-                    .filter(|&i| changed(self.g0[i], self.root_finder.g_hi[i]))
-                    .collect();
+                let indices: Vec<usize> = (0..m).filter(|&i| changed(self.g_ref[i], self.g_ret[i])).collect();
                 y.copy_from_slice(&self.y_root);
                 *t = tr;
                 // The caller is expected to change the system here; nothing is cached.
@@ -737,15 +722,7 @@ impl Integrator for Rosenbrock {
             }
 
             {
-                let dense = StepDense {
-                    t0,
-                    t1,
-                    t_end: t1,
-                    y0: y,
-                    y1: &self.y1,
-                    q1: &self.q1,
-                    q2: &self.q2,
-                };
+                let dense = StepDense { t0, t1, t_end: t1, y0: y, y1: &self.y1, q1: &self.q1, q2: &self.q2 };
                 observer(&dense);
             }
             y.copy_from_slice(&self.y1);

@@ -10,7 +10,7 @@
 use crate::*;
 
 /// Closure-based system for tests.
-struct Sys<F, G = fn(f64, &[f64], &mut [f64])>
+struct Sys<F, G = RootFn>
 where
     F: FnMut(f64, &[f64], &mut [f64]) -> Result<(), RhsError>,
     G: FnMut(f64, &[f64], &mut [f64]),
@@ -47,12 +47,7 @@ fn plain<F>(n: usize, f: F) -> Sys<F>
 where
     F: FnMut(f64, &[f64], &mut [f64]) -> Result<(), RhsError>,
 {
-    Sys {
-        n,
-        f,
-        m: 0,
-        g: None,
-    }
+    Sys { n, f, m: 0, g: None }
 }
 
 fn no_obs() -> impl FnMut(&dyn Dense) {
@@ -62,16 +57,16 @@ fn no_obs() -> impl FnMut(&dyn Dense) {
 // ---------------------------------------------------------------- problems
 
 /// Nonstiff, nonlinear, non-autonomous; exact solution below.
-/// y1' = −y1² (1/(1+t)), y2' = −y2 + sin t + cos t (sin t), y3' = y3 cos t (exp(sin t)).
+/// y1' = −y1² (1/(1+t)), y2' = −y2 + sin t + cos t (sin t), y3' = y3 (1 − y3) (1/(1 + e^{−t})).
 fn smooth_rhs(t: f64, y: &[f64], d: &mut [f64]) -> Result<(), RhsError> {
     d[0] = -y[0] * y[0];
     d[1] = -y[1] + t.sin() + t.cos();
-    d[2] = y[2] * t.cos();
+    d[2] = y[2] * (1.0 - y[2]);
     Ok(())
 }
 
 fn smooth_exact(t: f64) -> [f64; 3] {
-    [1.0 / (1.0 + t), t.sin(), t.sin().exp()]
+    [1.0 / (1.0 + t), t.sin(), 1.0 / (1.0 + (-t).exp())]
 }
 
 fn robertson(_t: f64, y: &[f64], d: &mut [f64]) -> Result<(), RhsError> {
@@ -125,7 +120,7 @@ fn fixed_step_errors(h: f64) -> (f64, f64) {
 
 #[test]
 fn fixed_step_convergence_order_is_four() {
-    let hs = [0.1, 0.05, 0.025, 0.0125, 0.00625];
+    let hs = [0.2, 0.1, 0.05, 0.025];
     let errs: Vec<(f64, f64)> = hs.iter().map(|&h| fixed_step_errors(h)).collect();
     for k in 1..hs.len() {
         let p = (errs[k - 1].0 / errs[k].0).log2();
@@ -147,8 +142,7 @@ fn tolerance_sweep_error_is_proportional() {
         let mut int = Rosenbrock::new(Options::with_tolerances(tol, tol, 3), 3);
         let mut t = 0.0;
         let mut y = smooth_exact(0.0).to_vec();
-        int.advance(&mut sys, &mut t, &mut y, 5.0, &mut no_obs())
-            .expect("run");
+        int.advance(&mut sys, &mut t, &mut y, 5.0, &mut no_obs()).expect("run");
         let err = max_err(&y, &smooth_exact(5.0));
         let steps = int.stats().steps;
         eprintln!("tol {tol:e}: err {err:.3e}, steps {steps}");
@@ -169,17 +163,11 @@ fn tolerance_sweep_error_is_proportional() {
 fn robertson_to_1e5_matches_reference() {
     let reference = [0.0178659211422, 7.27475146849e-8, 0.982134006110];
     let mut sys = plain(3, robertson);
-    let opts = Options {
-        rtol: 1e-6,
-        atol: vec![1e-10, 1e-14, 1e-10],
-        ..Options::default()
-    };
+    let opts = Options { rtol: 1e-6, atol: vec![1e-10, 1e-14, 1e-10], ..Options::default() };
     let mut int = Rosenbrock::new(opts, 3);
     let mut t = 0.0;
     let mut y = vec![1.0, 0.0, 0.0];
-    let r = int
-        .advance(&mut sys, &mut t, &mut y, 1e5, &mut no_obs())
-        .expect("Robertson");
+    let r = int.advance(&mut sys, &mut t, &mut y, 1e5, &mut no_obs()).expect("Robertson");
     assert_eq!(r, Advance::Reached);
     assert_eq!(t, 1e5);
     let s = int.stats();
@@ -199,22 +187,15 @@ fn van_der_pol_mu_1000_is_cheap_and_accurate() {
     let mut int = Rosenbrock::new(Options::with_tolerances(1e-6, 1e-6, 2), 2);
     let mut t = 0.0;
     let mut y = vec![2.0, 0.0];
-    int.advance(&mut sys, &mut t, &mut y, 3000.0, &mut no_obs())
-        .expect("Van der Pol");
+    int.advance(&mut sys, &mut t, &mut y, 3000.0, &mut no_obs()).expect("Van der Pol");
     let s = int.stats();
     eprintln!("Van der Pol mu=1000 rtol 1e-6: y = {y:?}, stats {s:?}");
     assert!(s.steps < 2000, "{} steps", s.steps);
     // SciPy Radau and LSODA at rtol = atol = 1e-12 agree on y1(3000) = −1.5106069362 ± 5e-10
     // (slow phase of the second cycle, where y1' ≈ 1e-3).
     let reference = [-1.5106069362];
-    assert!(
-        (y[0] - reference[0]).abs() < 1e-3 * reference[0].abs(),
-        "y1 = {} vs {}",
-        y[0],
-        reference[0]
-    );
+    assert!((y[0] - reference[0]).abs() < 1e-4 * reference[0].abs(), "y1 = {} vs {}", y[0], reference[0]);
 }
-
 
 #[test]
 fn prothero_robinson_l_stability() {
@@ -244,10 +225,7 @@ fn prothero_robinson_l_stability() {
     })
     .expect("fixed");
     let worst_later = errs[2..].iter().cloned().fold(0.0, f64::max);
-    eprintln!(
-        "Prothero-Robinson fixed h = 0.1: step errors {:.2e}, {:.2e}, then ≤ {worst_later:.2e}",
-        errs[0], errs[1]
-    );
+    eprintln!("Prothero-Robinson fixed h = 0.1: step errors {:.2e}, {:.2e}, then ≤ {worst_later:.2e}", errs[0], errs[1]);
     assert_eq!(errs.len(), 100);
     assert!(errs[0] < 1e-3, "first step error {}", errs[0]);
     assert!(errs[1] < 1e-6, "second step error {}", errs[1]);
@@ -281,8 +259,7 @@ fn stability_function_vanishes_at_infinity() {
     int.set_fixed_step(Some(1.0));
     let mut t = 0.0;
     let mut y = vec![1.0];
-    int.advance(&mut sys, &mut t, &mut y, 1.0, &mut no_obs())
-        .expect("step");
+    int.advance(&mut sys, &mut t, &mut y, 1.0, &mut no_obs()).expect("step");
     assert!(y[0].abs() < 1e-9, "R(-1e12) = {}", y[0]);
 }
 
@@ -337,13 +314,11 @@ fn dense_output_is_continuous_and_accurate() {
 
 // ---------------------------------------------------------------- roots
 
-fn ball_system(m: usize, g: fn(f64, &[f64], &mut [f64])) -> Sys<fn(f64, &[f64], &mut [f64]) -> Result<(), RhsError>> {
-    Sys {
-        n: 2,
-        f: ball,
-        m,
-        g: Some(g),
-    }
+type RhsFn = fn(f64, &[f64], &mut [f64]) -> Result<(), RhsError>;
+type RootFn = fn(f64, &[f64], &mut [f64]);
+
+fn ball_system(m: usize, g: RootFn) -> Sys<RhsFn> {
+    Sys { n: 2, f: ball, m, g: Some(g) }
 }
 
 #[test]
@@ -371,9 +346,7 @@ fn falling_ball_hits_ground_at_exact_time() {
     y[1] = v;
     int.reset();
     let t0 = t;
-    let r = int
-        .advance(&mut sys, &mut t, &mut y, 5.0, &mut no_obs())
-        .expect("second flight");
+    let r = int.advance(&mut sys, &mut t, &mut y, 5.0, &mut no_obs()).expect("second flight");
     assert_eq!(r, Advance::Root { indices: vec![0] });
     let expected = t0 + 2.0 * v / G;
     assert!((t - expected).abs() < 1e-9, "t = {t}, expected {expected}");
@@ -397,9 +370,7 @@ fn oscillator_root_located_to_tolerance() {
     let mut int = Rosenbrock::new(Options::with_tolerances(1e-10, 1e-12, 2), 2);
     let mut t = 0.0;
     let mut y = vec![1.0, 0.0];
-    let r = int
-        .advance(&mut sys, &mut t, &mut y, 3.0, &mut no_obs())
-        .expect("oscillator");
+    let r = int.advance(&mut sys, &mut t, &mut y, 3.0, &mut no_obs()).expect("oscillator");
     assert_eq!(r, Advance::Root { indices: vec![0] });
     let e = t - std::f64::consts::FRAC_PI_2;
     eprintln!("cos root error {e:e}");
@@ -420,9 +391,7 @@ fn simultaneous_roots_are_all_reported() {
     let mut int = Rosenbrock::new(Options::with_tolerances(1e-8, 1e-10, 2), 2);
     let mut t = 0.0;
     let mut y = vec![10.0, 0.0];
-    let r = int
-        .advance(&mut sys, &mut t, &mut y, 5.0, &mut no_obs())
-        .expect("ball");
+    let r = int.advance(&mut sys, &mut t, &mut y, 5.0, &mut no_obs()).expect("ball");
     assert_eq!(r, Advance::Root { indices: vec![0, 1] });
     assert!(t >= (20.0 / G).sqrt(), "returned point on the new side of g1");
 }
@@ -437,13 +406,11 @@ fn stop_time_is_respected_exactly_and_backwards_works() {
     let mut t = 0.0;
     let mut y = vec![1.0];
     let stop = 0.1 * 3.0; // not representable exactly; must be hit bit for bit
-    int.advance(&mut sys, &mut t, &mut y, stop, &mut no_obs())
-        .expect("forward");
+    int.advance(&mut sys, &mut t, &mut y, stop, &mut no_obs()).expect("forward");
     assert_eq!(t, stop);
     assert!((y[0] - (-stop).exp()).abs() < 1e-9);
     // And back to 0.
-    int.advance(&mut sys, &mut t, &mut y, 0.0, &mut no_obs())
-        .expect("backward");
+    int.advance(&mut sys, &mut t, &mut y, 0.0, &mut no_obs()).expect("backward");
     assert_eq!(t, 0.0);
     assert!((y[0] - 1.0).abs() < 1e-8, "y(0) = {}", y[0]);
 }
@@ -454,10 +421,7 @@ fn h_max_is_honoured() {
         d[0] = 1.0;
         Ok(())
     });
-    let opts = Options {
-        h_max: 0.01,
-        ..Options::with_tolerances(1e-6, 1e-6, 1)
-    };
+    let opts = Options { h_max: 0.01, ..Options::with_tolerances(1e-6, 1e-6, 1) };
     let mut int = Rosenbrock::new(opts, 1);
     let (mut t, mut y) = (0.0, vec![0.0]);
     let mut longest: f64 = 0.0;
@@ -485,9 +449,7 @@ fn rhs_error_is_reported_with_time() {
     let (mut t, mut y) = (0.0, vec![0.0]);
     match int.advance(&mut sys, &mut t, &mut y, 1.0, &mut no_obs()) {
         Err(e @ IntegratorError::Rhs { .. }) => {
-            let IntegratorError::Rhs { t: te, ref source } = e else {
-                unreachable!()
-            };
+            let IntegratorError::Rhs { t: te, ref source } = e else { unreachable!() };
             assert!(te > 0.5 && te <= 1.0, "t = {te}");
             assert_eq!(source.0, "table lookup out of range");
             let msg = e.to_string();
@@ -538,33 +500,21 @@ fn shrinking_step_gives_step_size_too_small() {
 
     // With h_min the stiff Van der Pol transition cannot be resolved either.
     let mut sys = plain(2, van_der_pol);
-    let opts = Options {
-        h_min: 1e-2,
-        ..Options::with_tolerances(1e-6, 1e-6, 2)
-    };
+    let opts = Options { h_min: 1e-2, ..Options::with_tolerances(1e-6, 1e-6, 2) };
     let mut int = Rosenbrock::new(opts, 2);
     let (mut t, mut y) = (0.0, vec![2.0, 0.0]);
     let r = int.advance(&mut sys, &mut t, &mut y, 3000.0, &mut no_obs());
-    assert!(
-        matches!(r, Err(IntegratorError::StepSizeTooSmall { h, .. }) if h < 1e-2),
-        "{r:?}"
-    );
+    assert!(matches!(r, Err(IntegratorError::StepSizeTooSmall { h, .. }) if h < 1e-2), "{r:?}");
 }
 
 #[test]
 fn too_many_steps_is_reported() {
     let mut sys = plain(2, van_der_pol);
-    let opts = Options {
-        max_steps: 50,
-        ..Options::with_tolerances(1e-6, 1e-6, 2)
-    };
+    let opts = Options { max_steps: 50, ..Options::with_tolerances(1e-6, 1e-6, 2) };
     let mut int = Rosenbrock::new(opts, 2);
     let (mut t, mut y) = (0.0, vec![2.0, 0.0]);
     let r = int.advance(&mut sys, &mut t, &mut y, 3000.0, &mut no_obs());
-    assert!(
-        matches!(r, Err(IntegratorError::TooManySteps { steps: 50, .. })),
-        "{r:?}"
-    );
+    assert!(matches!(r, Err(IntegratorError::TooManySteps { steps: 50, .. })), "{r:?}");
     assert!(t > 0.0 && t < 3000.0);
 }
 
@@ -577,3 +527,168 @@ fn method_name_and_stats() {
     assert_eq!((s.steps, s.rhs_evals, s.lu), (0, 0, 0));
 }
 
+// ---------------------------------------------------------------- allocation
+
+mod alloc_count {
+    //! Per-thread allocation counter (test binary only), to check that the step
+    //! loop does not allocate.
+    use std::alloc::{GlobalAlloc, Layout, System};
+    use std::cell::Cell;
+
+    pub struct Counting;
+
+    thread_local! {
+        pub static ALLOCS: Cell<usize> = const { Cell::new(0) };
+    }
+
+    unsafe impl GlobalAlloc for Counting {
+        unsafe fn alloc(&self, layout: Layout) -> *mut u8 {
+            let _ = ALLOCS.try_with(|c| c.set(c.get() + 1));
+            // SAFETY: forwarded unchanged to the system allocator.
+            unsafe { System.alloc(layout) }
+        }
+        unsafe fn dealloc(&self, ptr: *mut u8, layout: Layout) {
+            // SAFETY: forwarded unchanged to the system allocator.
+            unsafe { System.dealloc(ptr, layout) }
+        }
+        unsafe fn realloc(&self, ptr: *mut u8, layout: Layout, new_size: usize) -> *mut u8 {
+            let _ = ALLOCS.try_with(|c| c.set(c.get() + 1));
+            // SAFETY: forwarded unchanged to the system allocator.
+            unsafe { System.realloc(ptr, layout, new_size) }
+        }
+    }
+
+    #[global_allocator]
+    static GLOBAL: Counting = Counting;
+
+    pub fn count() -> usize {
+        ALLOCS.with(|c| c.get())
+    }
+}
+
+#[test]
+fn step_loop_does_not_allocate() {
+    // Van der Pol with a root function, observer sampling the dense output.
+    let mut sys = Sys { n: 2, f: van_der_pol, m: 1, g: Some(|_t: f64, y: &[f64], g: &mut [f64]| g[0] = y[0] - 5.0) };
+    let mut int = Rosenbrock::new(Options::with_tolerances(1e-6, 1e-6, 2), 2);
+    let (mut t, mut y) = (0.0, vec![2.0, 0.0]);
+    let mut buf = [0.0; 2];
+    let mut sum = 0.0;
+    // Warm-up call (first use of buffers for the root functions).
+    int.advance(&mut sys, &mut t, &mut y, 1.0, &mut no_obs()).expect("warm-up");
+    let before = alloc_count::count();
+    let r = int
+        .advance(&mut sys, &mut t, &mut y, 3000.0, &mut |d: &dyn Dense| {
+            d.eval(0.5 * (d.t_start() + d.t_end()), &mut buf);
+            sum += buf[0];
+        })
+        .expect("run");
+    let after = alloc_count::count();
+    // The counter does see allocations on this thread.
+    let v = std::hint::black_box(vec![1u8; 64]);
+    assert!(alloc_count::count() > after && v.len() == 64);
+    assert_eq!(r, Advance::Reached);
+    assert!(sum.is_finite() && int.stats().steps > 500);
+    assert_eq!(after - before, 0, "allocations during advance");
+}
+
+// ---------------------------------------------------------------- circuit-like stiff problem
+
+#[test]
+fn dead_volume_behind_large_valve_fills_chamber() {
+    // Isothermal mock circuit: supply ps → (large valve) → dead volume V1 = 0.1 cm³
+    // → (small orifice) → chamber V2 = 1 l. Orifice mass flow k·sign(Δp)·√|Δp| with a
+    // linear (laminar) region |Δp| < 100 Pa, continuous at the join. The dead volume
+    // gives an eigenvalue ≈ −(RT/V1)·k1/√100 ≈ −8e5 1/s; the chamber fills in ~100 s.
+    const RT: f64 = 287.0 * 293.15;
+    const PS: f64 = 6e5;
+    let (v1, v2, k1, k2, dp_lam) = (1e-7, 1e-3, 1e-5, 1e-7, 100.0);
+    let flow = move |k: f64, dp: f64| {
+        if dp.abs() < dp_lam {
+            k * dp / dp_lam.sqrt()
+        } else {
+            k * dp.signum() * dp.abs().sqrt()
+        }
+    };
+    let mut sys = Sys {
+        n: 2,
+        f: move |_t, y: &[f64], d: &mut [f64]| {
+            let q_in = flow(k1, PS - y[0]);
+            let q_out = flow(k2, y[0] - y[1]);
+            d[0] = RT / v1 * (q_in - q_out);
+            d[1] = RT / v2 * q_out;
+            Ok(())
+        },
+        m: 1,
+        // Event: chamber reaches 5 bar.
+        g: Some(|_t: f64, y: &[f64], g: &mut [f64]| g[0] = y[1] - 5e5),
+    };
+    let opts = Options { rtol: 1e-6, atol: vec![1.0, 1.0], ..Options::default() };
+    let mut int = Rosenbrock::new(opts, 2);
+    let (mut t, mut y) = (0.0, vec![1e5, 1e5]);
+    let mut monotone = true;
+    let mut last_p2 = y[1];
+    let mut buf = [0.0; 2];
+    let r = int
+        .advance(&mut sys, &mut t, &mut y, 1000.0, &mut |d: &dyn Dense| {
+            for k in 1..=4 {
+                d.eval(d.t_start() + (d.t_end() - d.t_start()) * k as f64 / 4.0, &mut buf);
+                monotone &= buf[1] >= last_p2 - 1.0 && buf[0] >= buf[1] - 1.0 && buf[0] <= PS + 1.0;
+                last_p2 = buf[1];
+            }
+        })
+        .expect("circuit");
+    let s = int.stats();
+    eprintln!("mock circuit: event at t = {t:.4} s, y = {y:?}, {s:?}");
+    assert_eq!(r, Advance::Root { indices: vec![0] });
+    assert!(monotone, "pressures must rise monotonically and stay ordered");
+    // Quasi-steady check at the event: the dead volume sits where inflow = outflow.
+    let q_in = flow(k1, PS - y[0]);
+    let q_out = flow(k2, y[0] - y[1]);
+    assert!((q_in - q_out).abs() < 1e-3 * q_out, "q_in {q_in}, q_out {q_out}");
+    // Fill time: with p1 ≈ ps (k1 ≫ k2; the laminar drop across the valve is
+    // ps − p1 = 10·k2/k1·√(p1 − p2) ≤ 70 Pa, i.e. < 3e-4 relative), dp2/dt =
+    // (RT/V2)·k2·√(ps − p2), so t = 2·V2/(RT·k2)·(√(ps − p0) − √(ps − 5e5)).
+    let t_exact_approx = 2.0 * v2 / (RT * k2) * ((PS - 1e5_f64).sqrt() - (PS - 5e5_f64).sqrt());
+    eprintln!("fill time {t} vs approximation {t_exact_approx}");
+    assert!((t - t_exact_approx).abs() < 1e-3 * t_exact_approx, "t = {t}, approx {t_exact_approx}");
+    assert!(s.steps < 300, "{} steps", s.steps);
+}
+
+/// A decaying state with its running integral declared as a quadrature.
+struct WithQuadrature {
+    declare: bool,
+}
+
+impl OdeSystem for WithQuadrature {
+    fn dim(&self) -> usize {
+        2
+    }
+    fn rhs(&mut self, _t: f64, y: &[f64], d: &mut [f64]) -> Result<(), RhsError> {
+        d[0] = -2.0 * y[0];
+        d[1] = y[0];
+        Ok(())
+    }
+    fn n_quadrature(&self) -> usize {
+        usize::from(self.declare)
+    }
+}
+
+#[test]
+fn quadrature_columns_are_not_differenced_and_results_agree() {
+    let run = |declare: bool| {
+        let mut int = Rosenbrock::new(Options::with_tolerances(1e-8, 1e-10, 2), 2);
+        let (mut t, mut y) = (0.0, vec![1.0, 0.0]);
+        int.advance(&mut WithQuadrature { declare }, &mut t, &mut y, 2.0, &mut |_| {}).unwrap();
+        (y, int.stats())
+    };
+    let (y_plain, s_plain) = run(false);
+    let (y_quad, s_quad) = run(true);
+    // ∫0^2 e^{-2t} dt = (1 - e^{-4})/2
+    let exact = (1.0 - (-4.0f64).exp()) / 2.0;
+    assert!((y_quad[1] - exact).abs() < 1e-8, "{}", y_quad[1]);
+    assert!((y_quad[1] - y_plain[1]).abs() < 1e-10);
+    assert_eq!(s_plain.steps, s_quad.steps);
+    // one column fewer per Jacobian
+    assert_eq!(s_plain.rhs_evals - s_quad.rhs_evals, s_plain.jacobians);
+}

@@ -93,6 +93,7 @@ pub(crate) fn solve_cluster(
     node_gas: &mut [GasState],
     junction_ports: &[Vec<(usize, usize)>],
     guess: &mut [f64],
+    step_hint: &mut [f64],
     cluster: &[usize],
     gas: &dyn GasModel,
     t: f64,
@@ -103,7 +104,7 @@ pub(crate) fn solve_cluster(
         let mut change: f64 = 0.0;
         for &node in cluster {
             let old = node_gas[node].p;
-            solve_node(circuit, slots, node_gas, &junction_ports[node], guess, node, gas, t, y)?;
+            solve_node(circuit, slots, node_gas, &junction_ports[node], guess, step_hint, node, gas, t, y)?;
             change = change.max((node_gas[node].p - old).abs() / node_gas[node].p);
         }
         if change < 1e-12 {
@@ -120,6 +121,7 @@ fn solve_node(
     node_gas: &mut [GasState],
     attached: &[(usize, usize)],
     guess: &mut [f64],
+    step_hint: &mut [f64],
     node: usize,
     gas: &dyn GasModel,
     t: f64,
@@ -142,54 +144,72 @@ fn solve_node(
     let mut p = lo0;
     for _outer in 0..4 {
         let state_at = |p: f64, temp: f64| gas.state_pt(p, temp);
-        let (mut lo, mut hi) = (lo0, hi0);
-        let mut f_lo = net_outflow(circuit, slots, attached, state_at(lo, temp), gas, t, y).0;
-        let mut f_hi = net_outflow(circuit, slots, attached, state_at(hi, temp), gas, t, y).0;
-        // flow sources can push the root outside the neighbours' range: widen
-        let mut widen = 0;
-        while f_hi < 0.0 && widen < 60 {
-            hi *= 2.0;
-            f_hi = net_outflow(circuit, slots, attached, state_at(hi, temp), gas, t, y).0;
-            widen += 1;
-        }
-        while f_lo > 0.0 && widen < 120 {
-            lo *= 0.5;
-            f_lo = net_outflow(circuit, slots, attached, state_at(lo, temp), gas, t, y).0;
-            widen += 1;
-        }
-        if f_lo > 0.0 || f_hi < 0.0 {
-            return Err(fail(format!("no pressure balances the flows between {lo} and {hi} Pa")));
-        }
-        if f_lo == 0.0 && f_hi == 0.0 {
-            // no flow at all (all paths closed): any pressure balances; keep the previous one
-            p = if guess[node].is_finite() { guess[node].clamp(lo, hi) } else { 0.5 * (lo + hi) };
-        } else if f_lo == 0.0 {
-            p = lo;
-        } else if f_hi == 0.0 {
-            p = hi;
-        } else {
-            // warm start: shrink the bracket around the previous solution
-            let g = guess[node];
-            if g.is_finite() && g > lo && g < hi {
-                let span = (hi - lo) * 1e-6;
-                for cand in [g - span, g + span] {
-                    if cand > lo && cand < hi {
-                        let fc = net_outflow(circuit, slots, attached, state_at(cand, temp), gas, t, y).0;
-                        if fc <= 0.0 {
-                            lo = cand;
-                            f_lo = fc;
-                        } else {
-                            hi = cand;
-                            f_hi = fc;
-                        }
+        let mut eval = |p: f64| net_outflow(circuit, slots, attached, state_at(p, temp), gas, t, y).0;
+        // warm start: probe from the previous solution, at a distance sized by
+        // the last change of this junction's pressure, growing until the root
+        // is bracketed (few evaluations whether the state moved a little, as in
+        // a Jacobian column, or a lot, as between Rosenbrock stages)
+        let g = guess[node];
+        let mut bracket = None;
+        if g.is_finite() && g > lo0 && g < hi0 {
+            let fg = eval(g);
+            if fg == 0.0 {
+                bracket = Some((g, 0.0, g, 0.0));
+            } else {
+                let up = fg < 0.0;
+                let mut step = step_hint[node].max(1e-10 * g);
+                let (mut near, mut f_near) = (g, fg);
+                for _ in 0..40 {
+                    let probe = if up { (near + step).min(hi0) } else { (near - step).max(lo0) };
+                    let fp = eval(probe);
+                    if (fp >= 0.0) == up || fp == 0.0 {
+                        bracket = Some(if up { (near, f_near, probe, fp) } else { (probe, fp, near, f_near) });
+                        break;
                     }
+                    if probe == hi0 || probe == lo0 {
+                        break;
+                    }
+                    near = probe;
+                    f_near = fp;
+                    step *= 4.0;
                 }
             }
-            p = illinois(|p| net_outflow(circuit, slots, attached, state_at(p, temp), gas, t, y).0, lo, f_lo, hi, f_hi)
-                .ok_or_else(|| fail("pressure iteration did not converge".into()))?;
         }
+        let (lo, f_lo, hi, f_hi) = match bracket {
+            Some(b) => b,
+            None => {
+                let (mut lo, mut hi) = (lo0, hi0);
+                let (mut f_lo, mut f_hi) = (eval(lo), eval(hi));
+                // flow sources can push the root outside the neighbours' range: widen
+                let mut widen = 0;
+                while f_hi < 0.0 && widen < 60 {
+                    hi *= 2.0;
+                    f_hi = eval(hi);
+                    widen += 1;
+                }
+                while f_lo > 0.0 && widen < 120 {
+                    lo *= 0.5;
+                    f_lo = eval(lo);
+                    widen += 1;
+                }
+                if f_lo > 0.0 || f_hi < 0.0 {
+                    return Err(fail(format!("no pressure balances the flows between {lo:.6e} and {hi:.6e} Pa")));
+                }
+                (lo, f_lo, hi, f_hi)
+            }
+        };
+        p = if f_lo == 0.0 && f_hi == 0.0 {
+            // no flow at all (all paths closed): any pressure balances; keep the previous one
+            if g.is_finite() { g.clamp(lo, hi) } else { 0.5 * (lo + hi) }
+        } else if f_lo == 0.0 {
+            lo
+        } else if f_hi == 0.0 {
+            hi
+        } else {
+            illinois(&mut eval, lo, f_lo, hi, f_hi).ok_or_else(|| fail("pressure iteration did not converge".into()))?
+        };
         // energy balance of the massless node
-        let (_, in_m, in_e) = net_outflow(circuit, slots, attached, state_at(p, temp), gas, t, y);
+        let (_, in_m, in_e) = net_outflow(circuit, slots, attached, gas.state_pt(p, temp), gas, t, y);
         let new_temp = if in_m > 0.0 { temperature_from_enthalpy(gas, p, in_e / in_m, temp) } else { temp };
         if !new_temp.is_finite() || new_temp <= 0.0 {
             return Err(fail(format!("junction temperature not finite at p = {p} Pa")));
@@ -202,6 +222,9 @@ fn solve_node(
     }
     let state = gas.state_pt(p, temp);
     node_gas[node] = state;
+    if guess[node].is_finite() {
+        step_hint[node] = 2.0 * (p - guess[node]).abs();
+    }
     guess[node] = p;
     for &(bi, k) in attached {
         slots[bi].gas[k] = state;
@@ -209,9 +232,11 @@ fn solve_node(
     Ok(())
 }
 
-/// Illinois regula falsi on a bracket with f(lo) < 0 < f(hi).
+/// Illinois regula falsi on a bracket with f(lo) < 0 < f(hi). Stops when the
+/// bracket or the last correction falls below the relative tolerance.
 fn illinois(mut f: impl FnMut(f64) -> f64, mut lo: f64, mut f_lo: f64, mut hi: f64, mut f_hi: f64) -> Option<f64> {
     let mut side = 0i8;
+    let mut last = f64::NAN;
     for i in 0..MAX_ITER {
         if hi - lo <= P_RTOL * hi {
             return Some(if -f_lo < f_hi { lo } else { hi });
@@ -222,9 +247,10 @@ fn illinois(mut f: impl FnMut(f64) -> f64, mut lo: f64, mut f_lo: f64, mut hi: f
             x = 0.5 * (lo + hi);
         }
         let fx = f(x);
-        if fx == 0.0 {
+        if fx == 0.0 || (x - last).abs() <= P_RTOL * x {
             return Some(x);
         }
+        last = x;
         if fx < 0.0 {
             lo = x;
             f_lo = fx;

@@ -30,7 +30,6 @@ pub(crate) struct Slot {
     pub pneu_nodes: Vec<usize>,
     pub pneu_is_effort: Vec<bool>,
     pub mech_nodes: Vec<usize>,
-    pub mech_is_inertia: Vec<bool>,
     /// Global signal index read by each signal input.
     pub sig_in: Vec<usize>,
     /// Global signal indices written by the signal outputs.
@@ -72,6 +71,8 @@ pub struct Model {
     pub(crate) junction_ports: Vec<Vec<(usize, usize)>>,
     /// Last solved junction pressures (warm start), per pneumatic node.
     pub(crate) junction_guess: Vec<f64>,
+    /// Last change of each junction pressure (sizes the next warm-start probe).
+    pub(crate) junction_step: Vec<f64>,
     /// Number of right-hand-side evaluations.
     pub evaluations: u64,
 }
@@ -81,6 +82,8 @@ pub struct Model {
 pub enum ModelError {
     #[error("{what} is not finite at t = {t} s")]
     NonFinite { t: f64, what: String },
+    #[error("{id} left the physical domain at t = {t} s: p = {p:.4e} Pa, T = {temp:.4e} K (the integrator could not recover with smaller steps)")]
+    NonPhysical { t: f64, id: String, p: f64, temp: f64 },
     #[error("junction of {ports} at t = {t} s: {message}")]
     Junction { t: f64, ports: String, message: String },
 }
@@ -101,7 +104,6 @@ impl Model {
             let mut pneu_nodes = Vec::new();
             let mut pneu_is_effort = Vec::new();
             let mut mech_nodes = Vec::new();
-            let mut mech_is_inertia = Vec::new();
             let mut n_out = 0;
             for (pi, p) in ports.iter().enumerate() {
                 match p.kind.domain() {
@@ -111,7 +113,6 @@ impl Model {
                     }
                     Domain::Mechanical => {
                         mech_nodes.push(inst.port_nodes[pi].unwrap_or(0));
-                        mech_is_inertia.push(p.kind == PortKind::MechanicalInertia);
                     }
                     Domain::Signal => {
                         if p.kind == PortKind::SignalOut {
@@ -151,7 +152,6 @@ impl Model {
                 pneu_nodes,
                 pneu_is_effort,
                 mech_nodes,
-                mech_is_inertia,
                 sig_in,
                 sig_out: sig_base[bi]..sig_base[bi] + n_out,
                 events: nev..nev + n_events,
@@ -188,6 +188,7 @@ impl Model {
             signals: vec![0.0; nsig],
             junction_ports,
             junction_guess: vec![f64::NAN; n_nodes],
+            junction_step: vec![0.0; n_nodes],
             evaluations: 0,
             circuit,
         }
@@ -246,7 +247,7 @@ impl Model {
         self.evaluations += 1;
         let gas = self.gas.clone();
         let gas: &dyn GasModel = &*gas;
-        let Model { circuit, slots, node_gas, node_inflow, node_mech, node_forces, modes, signals, junction_ports, junction_guess, .. } = self;
+        let Model { circuit, slots, node_gas, node_inflow, node_mech, node_forces, modes, signals, junction_ports, junction_guess, junction_step, .. } = self;
 
         // 1. kinematics of inertias
         for (node, mn) in circuit.mechanical_nodes.iter().enumerate() {
@@ -270,8 +271,8 @@ impl Model {
             for (k, &node) in slot.pneu_nodes.iter().enumerate() {
                 if slot.pneu_is_effort[k] {
                     let s = slot.gas_out[k];
-                    if !(s.p.is_finite() && s.t.is_finite() && s.p > 0.0 && s.t > 0.0) {
-                        return Err(ModelError::NonFinite { t, what: format!("gas state of {} (p = {} Pa, T = {} K)", circuit.instances[bi].id, s.p, s.t) });
+                    if !(s.p.is_finite() && s.t.is_finite() && s.p > 0.0 && s.t > 0.0 && s.rho > 0.0) {
+                        return Err(ModelError::NonPhysical { t, id: circuit.instances[bi].id.clone(), p: s.p, temp: s.t });
                     }
                     node_gas[node] = s;
                 }
@@ -295,7 +296,7 @@ impl Model {
         }
         // 4. junction pressures
         for cluster in &circuit.junction_clusters {
-            junction::solve_cluster(circuit, slots, node_gas, junction_ports, junction_guess, cluster, gas, t, y)?;
+            junction::solve_cluster(circuit, slots, node_gas, junction_ports, junction_guess, junction_step, cluster, gas, t, y)?;
         }
         // 5. flows
         for f in node_inflow.iter_mut() {

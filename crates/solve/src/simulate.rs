@@ -111,11 +111,29 @@ impl OdeSystem for System<'_> {
         self.model.dim()
     }
     fn rhs(&mut self, t: f64, y: &[f64], dydt: &mut [f64]) -> Result<(), RhsError> {
-        self.model.eval(t, y, Some(dydt), None).map_err(|e| {
-            let msg = e.to_string();
-            self.error = Some(e);
-            RhsError(msg)
-        })
+        match self.model.eval(t, y, Some(dydt), None) {
+            Ok(()) => {
+                self.error = None;
+                Ok(())
+            }
+            // A trial stage of a large step may leave the physical domain
+            // (negative mass): answer NaN so the integrator rejects the step
+            // and retries with a smaller one; keep the reason for the message
+            // in case it gives up.
+            Err(e @ ModelError::NonPhysical { .. }) => {
+                self.error = Some(e);
+                dydt.fill(f64::NAN);
+                Ok(())
+            }
+            Err(e) => {
+                let msg = e.to_string();
+                self.error = Some(e);
+                Err(RhsError(msg))
+            }
+        }
+    }
+    fn n_quadrature(&self) -> usize {
+        N_QUADRATURE
     }
     fn n_roots(&self) -> usize {
         self.model.n_roots()
@@ -238,14 +256,15 @@ pub fn simulate(model: &mut Model, opts: &SimOptions) -> Result<SimResult, Solve
             }
             Advance::Root { indices } => {
                 model.eval(t, &y, None, None)?;
-                for (bi, slot) in model.slots.clone().iter().enumerate() {
-                    for (k, idx) in slot.events.clone().enumerate() {
+                let event_ranges: Vec<_> = model.slots.iter().map(|s| s.events.clone()).collect();
+                for (bi, range) in event_ranges.into_iter().enumerate() {
+                    for (k, idx) in range.enumerate() {
                         if indices.contains(&idx) {
                             handle_block_event(model, bi, EventKind::Crossing(k), t, &y, &mut result)?;
-                            handled = true;
                         }
                     }
                 }
+                // node roots (stops, reversals, breakaway) are settled below
                 handled = true;
             }
         }
