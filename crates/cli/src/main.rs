@@ -3,6 +3,8 @@
 //! stderr and a non-zero exit; output files are written whole or not at all.
 
 mod check;
+mod conductance;
+mod discrepancy;
 mod error;
 mod load;
 mod output;
@@ -34,6 +36,10 @@ enum Command {
     Merge(sweep::MergeArgs),
     /// Plot signals from result CSV files, or a sweep.
     Plot(plot::PlotArgs),
+    /// Estimate sonic conductance C (and b) from a measured discharge of a known volume (paper Eq. 36).
+    Conductance(conductance::ConductanceArgs),
+    /// Find where simulation and measurement disagree, name the missing effect, add it, show the gap shrink.
+    Discrepancy(discrepancy::DiscrepancyArgs),
     /// Print the JSON Schema of the netlist format.
     Schema,
     /// List the block types and their parameters.
@@ -48,6 +54,8 @@ fn main() -> ExitCode {
         Command::Sweep(a) => sweep::run(&a),
         Command::Merge(a) => sweep::merge(&a),
         Command::Plot(a) => plot::run(&a),
+        Command::Conductance(a) => conductance::run(&a),
+        Command::Discrepancy(a) => discrepancy::run(&a),
         Command::Schema => {
             println!("{}", serde_json::to_string_pretty(&graph::netlist::schema()).unwrap_or_default());
             Ok(())

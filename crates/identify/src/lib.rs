@@ -1,0 +1,1 @@
+//! Calibration and discrepancy analysis (placeholder, being written).
