@@ -41,10 +41,18 @@ pub fn block_listing() -> String {
                 (None, _) => "required".to_string(),
                 (Some(d), blocks::params::ParamKind::Choice(opts)) => opts.get(d as usize).copied().unwrap_or("").to_string(),
                 (Some(d), _) if d.is_infinite() => "inf".into(),
-                (Some(d), _) => format!("{d}"),
+                (Some(d), _) => display_default(d, p.display_unit),
             };
             let _ = writeln!(s, "    {:<20} {:<12} default {:<10} {}", p.name, p.display_unit, default, p.doc);
         }
     }
     s
+}
+
+/// A default (stored in SI) in the parameter's display unit, as listed beside it.
+fn display_default(si: f64, display_unit: &str) -> String {
+    let v = if display_unit.is_empty() { si } else { units::to_unit(si, display_unit).unwrap_or(si) };
+    // 12 significant digits hide conversion noise such as 19.999999999999996
+    let rounded: f64 = format!("{v:.11e}").parse().unwrap_or(v);
+    format!("{rounded}")
 }

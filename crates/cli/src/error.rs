@@ -3,9 +3,9 @@
 #[derive(Debug, thiserror::Error)]
 pub enum CliError {
     #[error(transparent)]
-    Graph(#[from] graph::GraphError),
+    Graph(Box<graph::GraphError>),
     #[error(transparent)]
-    Solve(#[from] solve::SolveError),
+    Solve(Box<solve::SolveError>),
     #[error("{path}: {message}")]
     Io { path: String, message: String },
     #[error("{0}")]
@@ -17,5 +17,17 @@ pub enum CliError {
 impl CliError {
     pub fn io(path: &std::path::Path, e: impl std::fmt::Display) -> Self {
         CliError::Io { path: path.display().to_string(), message: e.to_string() }
+    }
+}
+
+impl From<graph::GraphError> for CliError {
+    fn from(e: graph::GraphError) -> Self {
+        CliError::Graph(Box::new(e))
+    }
+}
+
+impl From<solve::SolveError> for CliError {
+    fn from(e: solve::SolveError) -> Self {
+        CliError::Solve(Box::new(e))
     }
 }

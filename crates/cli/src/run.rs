@@ -2,8 +2,7 @@
 //! `simulate` (and later `sweep`).
 
 use crate::error::CliError;
-use crate::load::flat_netlist;
-use std::path::Path;
+use graph::FlatNetlist;
 
 /// Inputs of one run besides the netlist file.
 #[derive(Debug, Clone, Default)]
@@ -16,12 +15,28 @@ pub struct RunSpec {
 /// A finished run with the names the user asked to write.
 pub struct Run {
     pub name: String,
-    pub outputs: Vec<String>,
     pub result: solve::SimResult,
 }
 
-pub fn run(path: &Path, spec: &RunSpec) -> Result<Run, CliError> {
-    let flat = flat_netlist(path, &spec.sets)?;
+/// Run a netlist already loaded and expanded (`spec.sets` are
+/// applied to it first); lets `sweep` read the file once for all cases.
+pub fn run_flat(flat: FlatNetlist, spec: &RunSpec) -> Result<Run, CliError> {
+    execute(prepare(flat, spec)?)
+}
+
+/// A model built and ready to run, with its settings.
+pub struct Prepared {
+    pub name: String,
+    pub outputs: Vec<String>,
+    pub model: solve::Model,
+    pub opts: solve::SimOptions,
+}
+
+/// Apply overrides, build the circuit and settle the run settings.
+pub fn prepare(mut flat: FlatNetlist, spec: &RunSpec) -> Result<Prepared, CliError> {
+    for s in &spec.sets {
+        graph::apply_set(&mut flat, s)?;
+    }
     let circuit = graph::build(&flat)?;
     let mut opts = solve::options_from(&circuit.simulation)?;
     if let Some(n) = spec.cycles {
@@ -35,12 +50,20 @@ pub fn run(path: &Path, spec: &RunSpec) -> Result<Run, CliError> {
             return Err(CliError::Usage(format!("--t-end must be > 0 s, got {t}")));
         }
         opts.t_end = t;
+        // an explicit end time without --cycles runs to that time
+        if spec.cycles.is_none() {
+            opts.cycles = None;
+        }
     }
     let outputs = circuit.simulation.outputs.clone();
     let name = circuit.name.clone();
-    let mut model = solve::Model::new(circuit);
-    let result = solve::simulate(&mut model, &opts)?;
-    if let Some(n) = opts.cycles {
+    Ok(Prepared { name, outputs, model: solve::Model::new(circuit), opts })
+}
+
+/// Run a prepared model; a run that counts cycles must complete them all.
+pub fn execute(mut p: Prepared) -> Result<Run, CliError> {
+    let result = solve::simulate(&mut p.model, &p.opts)?;
+    if let Some(n) = p.opts.cycles {
         if (result.cycles.len() as u64) < n {
             return Err(CliError::Data(format!(
                 "only {} of {n} cycles completed by t = {:.3} s (the actuator stalled or the end time is too short)",
@@ -49,5 +72,5 @@ pub fn run(path: &Path, spec: &RunSpec) -> Result<Run, CliError> {
             )));
         }
     }
-    Ok(Run { name, outputs, result })
+    Ok(Run { name: p.name, result })
 }

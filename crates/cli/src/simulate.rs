@@ -2,7 +2,8 @@
 
 use crate::error::CliError;
 use crate::output::{csv, select_columns, summary, write_atomic};
-use crate::run::{run as run_model, RunSpec};
+use crate::load::flat_netlist;
+use crate::run::{execute, prepare, RunSpec};
 use std::path::PathBuf;
 
 #[derive(clap::Args, Debug)]
@@ -16,7 +17,7 @@ pub struct SimulateArgs {
     #[arg(long, conflicts_with = "t_end")]
     pub cycles: Option<u64>,
     /// End time [s].
-    #[arg(long = "t-end", value_name = "SECONDS")]
+    #[arg(long = "t-end", value_name = "SECONDS", allow_negative_numbers = true)]
     pub t_end: Option<f64>,
     /// Write time traces (CSV, SI units).
     #[arg(long, value_name = "FILE.csv")]
@@ -34,8 +35,14 @@ pub struct SimulateArgs {
 
 pub fn run(a: &SimulateArgs) -> Result<(), CliError> {
     let spec = RunSpec { sets: a.sets.clone(), cycles: a.cycles, t_end: a.t_end };
-    let r = run_model(&a.model, &spec)?;
-    let wanted = if a.signals.is_empty() { r.outputs.clone() } else { a.signals.clone() };
+    let prepared = prepare(flat_netlist(&a.model, &[])?, &spec)?;
+    let wanted = if a.signals.is_empty() { prepared.outputs.clone() } else { a.signals.clone() };
+    // unknown signal names are reported before the run, not after it
+    let names = prepared.model.output_names();
+    if let Some(bad) = wanted.iter().find(|w| !names.contains(w)) {
+        return Err(CliError::Usage(format!("unknown signal \"{bad}\" (available: {})", names.join(", "))));
+    }
+    let r = execute(prepared)?;
     let columns = select_columns(&r.result, &wanted)?;
     let all: Vec<usize> = (0..r.result.columns.len()).collect();
     // build everything before writing anything

@@ -1,0 +1,42 @@
+//! ARCHITECTURE.md stays true: every path it names exists.
+//!
+//! Paths in backticks under a "## `crates/NAME`" heading that start with
+//! `src/` are relative to that crate; other backticked paths that start with
+//! a top-level folder are relative to the repository root.
+
+use std::path::Path;
+
+#[test]
+fn every_path_in_the_codemap_exists() {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("../..");
+    let text = std::fs::read_to_string(root.join("ARCHITECTURE.md")).expect("ARCHITECTURE.md is readable");
+    let mut crate_dir: Option<String> = None;
+    let mut missing = Vec::new();
+    let mut checked = 0;
+    for line in text.lines() {
+        if let Some(rest) = line.strip_prefix("## ") {
+            crate_dir = rest.split('`').nth(1).filter(|s| s.starts_with("crates/")).map(str::to_string);
+        }
+        for (i, token) in line.split('`').enumerate() {
+            if i % 2 == 0 || token.contains(' ') {
+                continue;
+            }
+            let path = if let Some(rel) = token.strip_prefix("src/") {
+                match &crate_dir {
+                    Some(dir) => root.join(dir).join("src").join(rel),
+                    None => continue,
+                }
+            } else if ["crates/", "models/", "tests/", "docs/", ".ci/"].iter().any(|p| token.starts_with(p)) {
+                root.join(token)
+            } else {
+                continue;
+            };
+            checked += 1;
+            if !path.exists() {
+                missing.push(token.to_string());
+            }
+        }
+    }
+    assert!(checked > 30, "the codemap names only {checked} paths: did its format change?");
+    assert!(missing.is_empty(), "ARCHITECTURE.md names paths that do not exist: {missing:?}");
+}

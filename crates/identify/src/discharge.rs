@@ -1,0 +1,1 @@
+//! Discharge-test identification (being written).
