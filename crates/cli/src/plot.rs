@@ -92,6 +92,10 @@ pub struct PlotArgs {
     /// Title of the picture.
     #[arg(long)]
     pub title: Option<String>,
+    /// Vertical range LO,HI in the axis' display units; points outside break the line
+    /// (e.g. 0.5,2 for a polytropic index that runs off to infinity when ρ̇ = 0).
+    #[arg(long = "y-range", value_name = "LO,HI", value_delimiter = ',', allow_negative_numbers = true)]
+    pub y_range: Vec<f64>,
 }
 
 pub fn run(a: &PlotArgs) -> Result<(), CliError> {
@@ -116,6 +120,16 @@ pub fn run(a: &PlotArgs) -> Result<(), CliError> {
             overlay_figure(&tables, &a.signals, a.x.as_deref(), a.normalize, a.title.as_deref())?
         }
     };
+    let mut figure = figure;
+    if !a.y_range.is_empty() && a.y_range.len() != 2 {
+        return Err(CliError::Usage("--y-range takes two numbers: LO,HI".into()));
+    }
+    if let [lo, hi] = a.y_range[..] {
+        if !(lo < hi) {
+            return Err(CliError::Usage(format!("--y-range needs LO < HI, got {lo},{hi}")));
+        }
+        clip_vertical(&mut figure, lo, hi);
+    }
     let bytes = render(&figure, &a.output)?;
     write_atomic(&a.output, &bytes)?;
     println!("wrote {}", a.output.display());
@@ -144,6 +158,19 @@ pub fn traces_image(result: &solve::SimResult, columns: &[usize], path: &Path) -
         note: dropped_note(&dropped),
     };
     render(&figure, path)
+}
+
+/// Drop points outside [lo, hi] so that the axes span only that range.
+fn clip_vertical(figure: &mut Figure, lo: f64, hi: f64) {
+    for panel in &mut figure.panels {
+        for trace in &mut panel.traces {
+            for (_, y) in &mut trace.points {
+                if matches!(y, Some(v) if *v < lo || *v > hi) {
+                    *y = None;
+                }
+            }
+        }
+    }
 }
 
 // ---------------------------------------------------------------- figures
@@ -789,6 +816,24 @@ fn draw<DB: DrawingBackend>(root: &DrawingArea<DB, Shift>, fig: &Figure) -> Resu
             .map_err(e)?;
     }
     Ok(())
+}
+
+#[cfg(test)]
+mod clip_tests {
+    use super::*;
+
+    #[test]
+    fn vertical_range_breaks_lines_outside_it() {
+        let mut f = Figure {
+            title: String::new(),
+            x_desc: String::new(),
+            panels: vec![Panel { y_desc: String::new(), traces: vec![Trace { label: "n".into(), points: vec![(0.0, Some(1.2)), (1.0, Some(300.0)), (2.0, Some(-5.0)), (3.0, Some(1.4))], markers: false }] }],
+            note: None,
+        };
+        clip_vertical(&mut f, 0.5, 2.0);
+        let ys: Vec<_> = f.panels[0].traces[0].points.iter().map(|p| p.1).collect();
+        assert_eq!(ys, vec![Some(1.2), None, None, Some(1.4)]);
+    }
 }
 
 #[cfg(test)]
