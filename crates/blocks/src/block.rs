@@ -329,6 +329,12 @@ pub trait Block: std::fmt::Debug + Send + Sync {
     fn on_event(&mut self, _event: EventKind, _ctx: &Ctx) -> EventOutcome {
         EventOutcome::default()
     }
+    /// True if the block's equations depend on time explicitly and smoothly
+    /// (a sine source, say). Piecewise-constant time dependence announced
+    /// through [`Block::next_time_event`] does not count.
+    fn time_dependent(&self) -> bool {
+        false
+    }
     /// Whether the block's discrete state asks the simulation to stop.
     fn finished(&self) -> bool {
         false

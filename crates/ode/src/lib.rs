@@ -98,6 +98,11 @@ pub trait OdeSystem {
     fn n_quadrature(&self) -> usize {
         0
     }
+    /// True if f does not depend on t explicitly (∂f/∂t = 0), which saves one
+    /// evaluation per Jacobian. Default false.
+    fn autonomous(&self) -> bool {
+        false
+    }
     /// Number of root (event) functions.
     fn n_roots(&self) -> usize {
         0

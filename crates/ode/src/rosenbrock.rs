@@ -304,6 +304,11 @@ impl Rosenbrock {
                 return Err(IntegratorError::NonFinite { t, index: bad });
             }
         }
+        if sys.autonomous() {
+            self.ft.fill(0.0);
+            self.stats.jacobians += 1;
+            return Ok(());
+        }
         let dir = if h < 0.0 { -1.0 } else { 1.0 };
         let dt_mag = sqrt_eps * t.abs().max(h.abs()).max(f64::MIN_POSITIVE);
         let mut ok = false;

@@ -692,3 +692,36 @@ fn quadrature_columns_are_not_differenced_and_results_agree() {
     // one column fewer per Jacobian
     assert_eq!(s_plain.rhs_evals - s_quad.rhs_evals, s_plain.jacobians);
 }
+
+/// y' = -y declared autonomous: same result, one evaluation fewer per Jacobian.
+struct Decay {
+    declare: bool,
+}
+
+impl OdeSystem for Decay {
+    fn dim(&self) -> usize {
+        1
+    }
+    fn rhs(&mut self, _t: f64, y: &[f64], d: &mut [f64]) -> Result<(), RhsError> {
+        d[0] = -y[0];
+        Ok(())
+    }
+    fn autonomous(&self) -> bool {
+        self.declare
+    }
+}
+
+#[test]
+fn autonomous_systems_skip_the_time_column() {
+    let run = |declare: bool| {
+        let mut int = Rosenbrock::new(Options::with_tolerances(1e-8, 1e-10, 1), 1);
+        let (mut t, mut y) = (0.0, vec![1.0]);
+        int.advance(&mut Decay { declare }, &mut t, &mut y, 1.0, &mut |_| {}).unwrap();
+        (y[0], int.stats())
+    };
+    let (y0, s0) = run(false);
+    let (y1, s1) = run(true);
+    assert!((y1 - (-1.0f64).exp()).abs() < 1e-8);
+    assert!((y0 - y1).abs() < 1e-12);
+    assert_eq!(s0.rhs_evals - s1.rhs_evals, s0.jacobians);
+}

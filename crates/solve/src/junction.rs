@@ -233,10 +233,10 @@ fn solve_node(
 }
 
 /// Illinois regula falsi on a bracket with f(lo) < 0 < f(hi). Stops when the
-/// bracket or the last correction falls below the relative tolerance.
+/// bracket is narrower than the relative tolerance, so the flows balance to
+/// the precision of the pressure.
 fn illinois(mut f: impl FnMut(f64) -> f64, mut lo: f64, mut f_lo: f64, mut hi: f64, mut f_hi: f64) -> Option<f64> {
     let mut side = 0i8;
-    let mut last = f64::NAN;
     for i in 0..MAX_ITER {
         if hi - lo <= P_RTOL * hi {
             return Some(if -f_lo < f_hi { lo } else { hi });
@@ -247,10 +247,9 @@ fn illinois(mut f: impl FnMut(f64) -> f64, mut lo: f64, mut f_lo: f64, mut hi: f
             x = 0.5 * (lo + hi);
         }
         let fx = f(x);
-        if fx == 0.0 || (x - last).abs() <= P_RTOL * x {
+        if fx == 0.0 {
             return Some(x);
         }
-        last = x;
         if fx < 0.0 {
             lo = x;
             f_lo = fx;

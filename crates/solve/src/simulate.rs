@@ -135,6 +135,9 @@ impl OdeSystem for System<'_> {
     fn n_quadrature(&self) -> usize {
         N_QUADRATURE
     }
+    fn autonomous(&self) -> bool {
+        !self.model.circuit.instances.iter().any(|i| i.block.time_dependent())
+    }
     fn n_roots(&self) -> usize {
         self.model.n_roots()
     }
