@@ -64,7 +64,14 @@ pub const PARAMS: &[ParamSpec] = &[
     ParamSpec::quantity("rod_diameter", dim::LENGTH, Some(0.0), Range::NonNegative, "mm", "rod diameter on this side (with bore)"),
     ParamSpec::choice("orientation", &["extend", "retract"], 0, "volume grows on extend (head side) or on retract (rod side)"),
     ParamSpec::quantity("length_at_zero", dim::LENGTH, Some(0.0), Range::NonNegative, "mm", "gas-column length at x = 0"),
-    ParamSpec::quantity("tau_thermal", dim::TIME, Some(5.0), Range::PositiveOrInfinite, "s", "thermal time constant tau_T (inf = adiabatic)"),
+    ParamSpec::quantity(
+        "tau_thermal",
+        dim::TIME,
+        Some(5.0),
+        Range::PositiveOrInfinite,
+        "s",
+        "thermal time constant tau_T (inf = adiabatic)",
+    ),
     ParamSpec::quantity("T_wall", dim::TEMPERATURE, Some(293.15), Range::Positive, "K", "wall temperature"),
     ParamSpec::quantity("p0", dim::PRESSURE, Some(101_325.0), Range::Positive, "bar", "initial pressure (absolute)"),
     ParamSpec::quantity("T0", dim::TEMPERATURE, Some(293.15), Range::Positive, "K", "initial temperature"),
@@ -149,10 +156,7 @@ impl Chamber {
             t0: p.get("T0"),
         };
         if c.dead_volume <= 0.0 && c.area * c.length_at_zero <= 0.0 {
-            return Err(crate::BlockError::invalid(
-                "dead_volume",
-                "the chamber has no volume at x = 0: give dead_volume > 0",
-            ));
+            return Err(crate::BlockError::invalid("dead_volume", "the chamber has no volume at x = 0: give dead_volume > 0"));
         }
         Ok(c)
     }
@@ -177,14 +181,7 @@ impl Chamber {
     }
 
     /// Derivatives of (m, T) from the net port flow and piston velocity (Eq. 5, 8, 13/14).
-    pub fn rates(
-        &self,
-        gas: &dyn gas::GasModel,
-        m: f64,
-        t: f64,
-        mech: MechState,
-        inflow: PortFlow,
-    ) -> ChamberRates {
+    pub fn rates(&self, gas: &dyn gas::GasModel, m: f64, t: f64, mech: MechState, inflow: PortFlow) -> ChamberRates {
         let v = self.volume(mech.x).max(f64::MIN_POSITIVE);
         let rho = m / v;
         let cv = gas.cv(rho, t);
@@ -304,16 +301,7 @@ mod tests {
     use gas::{GasModel, IdealGas};
 
     fn cylinder(tau: f64) -> Chamber {
-        Chamber {
-            dead_volume: 20e-6,
-            area: 1.59e-3,
-            sigma: 1.0,
-            length_at_zero: 0.0,
-            tau_thermal: tau,
-            t_wall: 292.0,
-            p0: 4e5,
-            t0: 292.0,
-        }
+        Chamber { dead_volume: 20e-6, area: 1.59e-3, sigma: 1.0, length_at_zero: 0.0, tau_thermal: tau, t_wall: 292.0, p0: 4e5, t0: 292.0 }
     }
 
     fn state_at(c: &Chamber, gas: &dyn GasModel, p: f64, t: f64, x: f64) -> (f64, f64) {
@@ -436,14 +424,8 @@ mod tests {
         assert!((c.volume(0.0) - (c.dead_volume + c.area * 0.45)).abs() < 1e-15);
         let gas = IdealGas::air();
         let st = gas.state_pt(3e5, 300.0);
-        let ctx = Ctx {
-            t: 0.0,
-            gas: &gas,
-            states: &[0.0, 300.0],
-            pneumatic: &[st],
-            mechanical: &[MechState { x: 0.1, v: 0.0 }],
-            signals: &[],
-        };
+        let ctx =
+            Ctx { t: 0.0, gas: &gas, states: &[0.0, 300.0], pneumatic: &[st], mechanical: &[MechState { x: 0.1, v: 0.0 }], signals: &[] };
         let mut f = [PortForce::default()];
         c.forces(&ctx, &mut f);
         assert!((f[0].applied + 3e5 * c.area).abs() < 1e-9);

@@ -38,12 +38,16 @@ pub const PARAMS: &[ParamSpec] = &[
     ParamSpec::quantity("b_lam", dim::DIMENSIONLESS, Some(0.999), Range::OpenUnit, "", "laminar pressure ratio"),
     ParamSpec::quantity("T_ref", dim::TEMPERATURE, Some(293.15), Range::Positive, "K", "reference temperature"),
     ParamSpec::quantity("rho_ref", dim::DENSITY, Some(1.185), Range::Positive, "kg/m3", "reference density"),
-    ParamSpec::quantity("heat_conductance", dim::HEAT_CONDUCTANCE, Some(0.0), Range::NonNegative, "W/K", "port conduction G, Q_c = G (T_a - T_b)"),
+    ParamSpec::quantity(
+        "heat_conductance",
+        dim::HEAT_CONDUCTANCE,
+        Some(0.0),
+        Range::NonNegative,
+        "W/K",
+        "port conduction G, Q_c = G (T_a - T_b)",
+    ),
 ];
-const PORTS: &[PortSpec] = &[
-    PortSpec::new("a", PortKind::PneumaticFlow, "side a"),
-    PortSpec::new("b", PortKind::PneumaticFlow, "side b"),
-];
+const PORTS: &[PortSpec] = &[PortSpec::new("a", PortKind::PneumaticFlow, "side a"), PortSpec::new("b", PortKind::PneumaticFlow, "side b")];
 const OUTPUTS: &[OutputSpec] = &[OutputSpec { name: "mdot", unit: "kg/s" }];
 
 /// Build a flow characteristic from the standard parameter names with a prefix ("" or "check_").

@@ -54,10 +54,22 @@ macro_rules! valve_params {
     };
 }
 
-const EXHAUST_C: ParamSpec =
-    ParamSpec::quantity("C_exhaust", dim::CONDUCTANCE, Some(0.0), Range::NonNegative, "L/min/bar", "sonic conductance of exhaust paths (default: C)");
-const EXHAUST_B: ParamSpec =
-    ParamSpec::quantity("b_exhaust", dim::DIMENSIONLESS, Some(0.0), Range::Closed(0.0, 0.999), "", "critical ratio of exhaust paths (default: b)");
+const EXHAUST_C: ParamSpec = ParamSpec::quantity(
+    "C_exhaust",
+    dim::CONDUCTANCE,
+    Some(0.0),
+    Range::NonNegative,
+    "L/min/bar",
+    "sonic conductance of exhaust paths (default: C)",
+);
+const EXHAUST_B: ParamSpec = ParamSpec::quantity(
+    "b_exhaust",
+    dim::DIMENSIONLESS,
+    Some(0.0),
+    Range::Closed(0.0, 0.999),
+    "",
+    "critical ratio of exhaust paths (default: b)",
+);
 const NORMALLY_OPEN: ParamSpec = ParamSpec::choice("normally_open", &["no", "yes"], 0, "valve passes P->A (3/2) or a<->b (2/2) at rest");
 
 pub const PARAMS_5_2: &[ParamSpec] = valve_params!(EXHAUST_C, EXHAUST_B);

@@ -39,7 +39,14 @@ pub const PARAMS: &[ParamSpec] = &[
     ParamSpec::quantity("k3", dim::DAMPING_PER_PRESSURE, Some(0.0), Range::Any, "N s/(m Pa)", "viscous coefficient per (p1 - k4 p2)"),
     ParamSpec::quantity("k4", dim::DIMENSIONLESS, Some(1.0), Range::Any, "", "weight of p2 in the viscous term"),
     ParamSpec::quantity("breakaway_ratio", dim::DIMENSIONLESS, Some(1.0), Range::Closed(1.0, 10.0), "", "breakaway level / Coulomb level"),
-    ParamSpec::quantity("stribeck_velocity", dim::VELOCITY, Some(0.0), Range::NonNegative, "m/s", "Stribeck velocity (0 = no Stribeck decay)"),
+    ParamSpec::quantity(
+        "stribeck_velocity",
+        dim::VELOCITY,
+        Some(0.0),
+        Range::NonNegative,
+        "m/s",
+        "Stribeck velocity (0 = no Stribeck decay)",
+    ),
 ];
 
 const PORTS: &[PortSpec] = &[
@@ -87,11 +94,8 @@ impl Friction {
     /// Sliding friction magnitude at speed |v| [N].
     pub fn sliding(&self, v: f64, p1: f64, p2: f64) -> f64 {
         let fc = self.coulomb(p1, p2);
-        let stribeck = if self.stribeck_velocity > 0.0 {
-            (self.breakaway(p1, p2) - fc) * (-(v / self.stribeck_velocity).powi(2)).exp()
-        } else {
-            0.0
-        };
+        let stribeck =
+            if self.stribeck_velocity > 0.0 { (self.breakaway(p1, p2) - fc) * (-(v / self.stribeck_velocity).powi(2)).exp() } else { 0.0 };
         fc + stribeck + self.viscous(p1, p2) * v.abs()
     }
     /// Signed friction force on a node sliding at velocity v ≠ 0 (opposes motion) [N].
@@ -110,10 +114,8 @@ impl Block for Friction {
     fn forces(&self, ctx: &Ctx, out: &mut [PortForce]) {
         let (p1, p2) = (ctx.signals[0], ctx.signals[1]);
         let v = ctx.mechanical[0].v;
-        out[0] = PortForce {
-            applied: 0.0,
-            friction: Some(DryFriction { sliding: self.sliding(v, p1, p2), breakaway: self.breakaway(p1, p2) }),
-        };
+        out[0] =
+            PortForce { applied: 0.0, friction: Some(DryFriction { sliding: self.sliding(v, p1, p2), breakaway: self.breakaway(p1, p2) }) };
     }
     fn outputs(&self) -> &[OutputSpec] {
         OUTPUTS

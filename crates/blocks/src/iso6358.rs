@@ -130,19 +130,9 @@ impl FlowCharacteristic {
             return Err(FlowError::CriticalRatio(b));
         }
         if b >= DEFAULT_LAMINAR_RATIO {
-            return Err(FlowError::LaminarRatio {
-                b_lam: DEFAULT_LAMINAR_RATIO,
-                b,
-            });
+            return Err(FlowError::LaminarRatio { b_lam: DEFAULT_LAMINAR_RATIO, b });
         }
-        Ok(Self {
-            c,
-            b,
-            m: DEFAULT_SUBSONIC_INDEX,
-            b_lam: DEFAULT_LAMINAR_RATIO,
-            t_ref: ANR_TEMPERATURE,
-            rho_ref: ANR_DENSITY,
-        })
+        Ok(Self { c, b, m: DEFAULT_SUBSONIC_INDEX, b_lam: DEFAULT_LAMINAR_RATIO, t_ref: ANR_TEMPERATURE, rho_ref: ANR_DENSITY })
     }
 
     /// Same characteristic with subsonic index `m` in `(0, 1]`.
@@ -170,11 +160,7 @@ impl FlowCharacteristic {
         if !positive_finite(rho_ref) {
             return Err(FlowError::ReferenceDensity(rho_ref));
         }
-        Ok(Self {
-            t_ref,
-            rho_ref,
-            ..self
-        })
+        Ok(Self { t_ref, rho_ref, ..self })
     }
 
     /// Sonic conductance `C` (m³/(s·Pa)).
@@ -222,11 +208,7 @@ impl FlowCharacteristic {
             base.powf(self.m)
         };
         // dω/dr = m · ω / base · (−2x / (1 − b)); base > 0 here.
-        let slope = if base > 0.0 {
-            -2.0 * self.m * w * x / (base * span)
-        } else {
-            0.0
-        };
+        let slope = if base > 0.0 { -2.0 * self.m * w * x / (base * span) } else { 0.0 };
         (w, slope)
     }
 
@@ -365,37 +347,19 @@ mod tests {
         assert_eq!(f.b_lam(), 0.999);
         assert_eq!(f.t_ref(), 293.15);
         assert_eq!(f.rho_ref(), 1.185);
-        let g = f
-            .with_subsonic_index(0.7)
-            .unwrap()
-            .with_laminar_ratio(0.99)
-            .unwrap()
-            .with_reference(288.15, 1.225)
-            .unwrap();
-        assert_eq!(
-            (g.m(), g.b_lam(), g.t_ref(), g.rho_ref()),
-            (0.7, 0.99, 288.15, 1.225)
-        );
+        let g = f.with_subsonic_index(0.7).unwrap().with_laminar_ratio(0.99).unwrap().with_reference(288.15, 1.225).unwrap();
+        assert_eq!((g.m(), g.b_lam(), g.t_ref(), g.rho_ref()), (0.7, 0.99, 288.15, 1.225));
     }
 
     #[test]
     fn invalid_parameters_are_rejected() {
-        assert_eq!(
-            FlowCharacteristic::new(0.0, 0.3),
-            Err(FlowError::Conductance(0.0))
-        );
+        assert_eq!(FlowCharacteristic::new(0.0, 0.3), Err(FlowError::Conductance(0.0)));
         assert!(FlowCharacteristic::new(f64::NAN, 0.3).is_err());
         assert!(FlowCharacteristic::new(f64::INFINITY, 0.3).is_err());
-        assert_eq!(
-            FlowCharacteristic::new(1e-9, 1.0),
-            Err(FlowError::CriticalRatio(1.0))
-        );
+        assert_eq!(FlowCharacteristic::new(1e-9, 1.0), Err(FlowError::CriticalRatio(1.0)));
         assert!(FlowCharacteristic::new(1e-9, -0.1).is_err());
         assert!(FlowCharacteristic::new(1e-9, f64::NAN).is_err());
-        assert!(matches!(
-            FlowCharacteristic::new(1e-9, 0.9995),
-            Err(FlowError::LaminarRatio { .. })
-        ));
+        assert!(matches!(FlowCharacteristic::new(1e-9, 0.9995), Err(FlowError::LaminarRatio { .. })));
         assert!(FlowCharacteristic::new(1e-9, 0.0).is_ok());
         let f = fc(0.3);
         assert!(f.with_subsonic_index(0.0).is_err());
@@ -434,10 +398,7 @@ mod tests {
         let m = f.forward_flow(5.0 * BAR, 293.15, 4.0 * BAR);
         assert!(rel(m, 1.0428e-3) < 1e-12, "m = {m}");
         // Same point with m = 1: ω = 0.64 → 0.8342400e-3 kg/s.
-        let m1 = f
-            .with_subsonic_index(1.0)
-            .unwrap()
-            .forward_flow(5.0 * BAR, 293.15, 4.0 * BAR);
+        let m1 = f.with_subsonic_index(1.0).unwrap().forward_flow(5.0 * BAR, 293.15, 4.0 * BAR);
         assert!(rel(m1, 0.83424e-3) < 1e-12, "m1 = {m1}");
         // Laminar: b = 0.5, b_lam = 0.98 → x = 0.48/0.5 = 0.96,
         // ω(b_lam) = sqrt(1 − 0.9216) = 0.28; at r = 0.99,
@@ -543,10 +504,7 @@ mod tests {
         assert_eq!(f.forward_flow(2.0 * BAR, f64::NAN, 1.0), 0.0);
         assert_eq!(f.mass_flow(0.0, 300.0, 0.0, 300.0), 0.0);
         // Negative downstream pressure is vacuum: choked, equal to p2 = 0.
-        assert_eq!(
-            f.forward_flow(2.0 * BAR, 300.0, -5.0),
-            f.forward_flow(2.0 * BAR, 300.0, 0.0)
-        );
+        assert_eq!(f.forward_flow(2.0 * BAR, 300.0, -5.0), f.forward_flow(2.0 * BAR, 300.0, 0.0));
         assert_eq!(f.omega(-1.0), 1.0);
         assert_eq!(f.omega(1.0), 0.0);
         assert_eq!(f.omega(2.0), 0.0);
@@ -581,8 +539,7 @@ mod tests {
         }
         // Changing the reference scales by ρ_ref · sqrt(T_ref).
         let g = f.with_reference(273.15, 1.293).unwrap();
-        let ratio = g.forward_flow(6.0 * BAR, 300.0, 1.0 * BAR)
-            / f.forward_flow(6.0 * BAR, 300.0, 1.0 * BAR);
+        let ratio = g.forward_flow(6.0 * BAR, 300.0, 1.0 * BAR) / f.forward_flow(6.0 * BAR, 300.0, 1.0 * BAR);
         let expect = 1.293 / 1.185 * (273.15f64 / 293.15).sqrt();
         assert!(rel(ratio, expect) < 1e-14);
     }
@@ -590,11 +547,7 @@ mod tests {
     #[test]
     fn derivatives_match_finite_differences() {
         for &m in &[0.5, 0.75, 1.0] {
-            let f = fc(0.3)
-                .with_subsonic_index(m)
-                .unwrap()
-                .with_laminar_ratio(0.99)
-                .unwrap();
+            let f = fc(0.3).with_subsonic_index(m).unwrap().with_laminar_ratio(0.99).unwrap();
             let pa = 5.0 * BAR;
             // Choked, subsonic (several), laminar; both flow directions.
             for &r in &[0.1, 0.25, 0.35, 0.6, 0.9, 0.985, 0.995, 0.9999] {
@@ -603,21 +556,11 @@ mod tests {
                     let (ta, tb) = (310.0, 285.0);
                     let (da, db) = f.mass_flow_derivatives(p_a, ta, p_b, tb);
                     let h = 1e-6 * pa;
-                    let fd_a = (f.mass_flow(p_a + h, ta, p_b, tb)
-                        - f.mass_flow(p_a - h, ta, p_b, tb))
-                        / (2.0 * h);
-                    let fd_b = (f.mass_flow(p_a, ta, p_b + h, tb)
-                        - f.mass_flow(p_a, ta, p_b - h, tb))
-                        / (2.0 * h);
+                    let fd_a = (f.mass_flow(p_a + h, ta, p_b, tb) - f.mass_flow(p_a - h, ta, p_b, tb)) / (2.0 * h);
+                    let fd_b = (f.mass_flow(p_a, ta, p_b + h, tb) - f.mass_flow(p_a, ta, p_b - h, tb)) / (2.0 * h);
                     let scale = da.abs().max(db.abs());
-                    assert!(
-                        (da - fd_a).abs() < 1e-6 * scale,
-                        "m={m} r={r} swap={swap}: {da} vs {fd_a}"
-                    );
-                    assert!(
-                        (db - fd_b).abs() < 1e-6 * scale,
-                        "m={m} r={r} swap={swap}: {db} vs {fd_b}"
-                    );
+                    assert!((da - fd_a).abs() < 1e-6 * scale, "m={m} r={r} swap={swap}: {da} vs {fd_a}");
+                    assert!((db - fd_b).abs() < 1e-6 * scale, "m={m} r={r} swap={swap}: {db} vs {fd_b}");
                 }
             }
         }

@@ -10,8 +10,8 @@
 //! (shared/paper in the repository); "Eq. n" below refers to it.
 
 pub mod block;
-pub mod check_valve;
 pub mod chamber;
+pub mod check_valve;
 pub mod conductance;
 pub mod cycler;
 pub mod directional_valve;

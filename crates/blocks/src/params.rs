@@ -109,20 +109,8 @@ impl ParamSpec {
     ) -> Self {
         Self { name, kind: ParamKind::Quantity(dim), default, range, display_unit, doc }
     }
-    pub const fn choice(
-        name: &'static str,
-        options: &'static [&'static str],
-        default: usize,
-        doc: &'static str,
-    ) -> Self {
-        Self {
-            name,
-            kind: ParamKind::Choice(options),
-            default: Some(default as f64),
-            range: Range::Any,
-            display_unit: "",
-            doc,
-        }
+    pub const fn choice(name: &'static str, options: &'static [&'static str], default: usize, doc: &'static str) -> Self {
+        Self { name, kind: ParamKind::Choice(options), default: Some(default as f64), range: Range::Any, display_unit: "", doc }
     }
     pub const fn list(name: &'static str, dim: Dimension, range: Range, display_unit: &'static str, doc: &'static str) -> Self {
         Self { name, kind: ParamKind::List(dim), default: Some(0.0), range, display_unit, doc }
@@ -160,10 +148,7 @@ pub struct Params {
 impl Params {
     /// Parse raw values against the specs: converts units, applies defaults,
     /// checks ranges, and rejects unknown names.
-    pub fn from_raw<'a>(
-        specs: &'static [ParamSpec],
-        raw: impl IntoIterator<Item = (&'a str, &'a RawValue)>,
-    ) -> Result<Params, ParamError> {
+    pub fn from_raw<'a>(specs: &'static [ParamSpec], raw: impl IntoIterator<Item = (&'a str, &'a RawValue)>) -> Result<Params, ParamError> {
         let mut values = BTreeMap::new();
         let mut lists = BTreeMap::new();
         let mut given = Vec::new();
@@ -189,9 +174,7 @@ impl Params {
                     Some(d) => {
                         values.insert(spec.name, d);
                     }
-                    None => {
-                        return Err(ParamError::Missing { name: spec.name.into(), doc: spec.doc.into() })
-                    }
+                    None => return Err(ParamError::Missing { name: spec.name.into(), doc: spec.doc.into() }),
                 }
             }
         }
@@ -247,53 +230,27 @@ pub fn parse_value(spec: &ParamSpec, value: &RawValue) -> Result<f64, ParamError
             if spec.range == Range::PositiveOrInfinite && matches!(s.trim(), "inf" | "infinity" | "∞") {
                 f64::INFINITY
             } else {
-                parse_quantity(s, dim).map_err(|source| ParamError::Unit {
-                    name: spec.name.into(),
-                    value: shown.clone(),
-                    source,
-                })?
+                parse_quantity(s, dim).map_err(|source| ParamError::Unit { name: spec.name.into(), value: shown.clone(), source })?
             }
         }
-        (ParamKind::Choice(options), RawValue::Text(s)) => {
-            match options.iter().position(|o| o.eq_ignore_ascii_case(s.trim())) {
-                Some(i) => return Ok(i as f64),
-                None => {
-                    return Err(ParamError::BadChoice {
-                        name: spec.name.into(),
-                        value: shown,
-                        options: options.join(", "),
-                    })
-                }
-            }
-        }
+        (ParamKind::Choice(options), RawValue::Text(s)) => match options.iter().position(|o| o.eq_ignore_ascii_case(s.trim())) {
+            Some(i) => return Ok(i as f64),
+            None => return Err(ParamError::BadChoice { name: spec.name.into(), value: shown, options: options.join(", ") }),
+        },
         (ParamKind::Choice(options), RawValue::Number(_)) => {
-            return Err(ParamError::BadChoice {
-                name: spec.name.into(),
-                value: shown,
-                options: options.join(", "),
-            })
+            return Err(ParamError::BadChoice { name: spec.name.into(), value: shown, options: options.join(", ") })
         }
         (ParamKind::Count, RawValue::Number(x)) if *x >= 0.0 && x.fract() == 0.0 => *x,
         (ParamKind::Count, RawValue::Text(s)) => match s.trim().parse::<u64>() {
             Ok(n) => n as f64,
             Err(_) => {
-                return Err(ParamError::OutOfRange {
-                    name: spec.name.into(),
-                    value: shown,
-                    reason: "must be a whole number >= 0".into(),
-                })
+                return Err(ParamError::OutOfRange { name: spec.name.into(), value: shown, reason: "must be a whole number >= 0".into() })
             }
         },
         (ParamKind::Count, RawValue::Number(_)) => {
-            return Err(ParamError::OutOfRange {
-                name: spec.name.into(),
-                value: shown,
-                reason: "must be a whole number >= 0".into(),
-            })
+            return Err(ParamError::OutOfRange { name: spec.name.into(), value: shown, reason: "must be a whole number >= 0".into() })
         }
     };
-    spec.range
-        .check(x)
-        .map_err(|reason| ParamError::OutOfRange { name: spec.name.into(), value: shown, reason })?;
+    spec.range.check(x).map_err(|reason| ParamError::OutOfRange { name: spec.name.into(), value: shown, reason })?;
     Ok(x)
 }

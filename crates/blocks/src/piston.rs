@@ -38,7 +38,14 @@ pub const PARAMS: &[ParamSpec] = &[
     ParamSpec::quantity("rod_diameter", dim::LENGTH, Some(0.0), Range::NonNegative, "mm", "rod diameter (alternative to rod_area)"),
     ParamSpec::quantity("p_atm", dim::PRESSURE, Some(101_325.0), Range::Positive, "bar", "ambient pressure on the rod"),
     ParamSpec::quantity("external_force", dim::FORCE, Some(0.0), Range::Any, "N", "constant load, positive in the extend direction"),
-    ParamSpec::quantity("restitution", dim::DIMENSIONLESS, Some(0.0), Range::Closed(0.0, 1.0), "", "coefficient of restitution at the stops"),
+    ParamSpec::quantity(
+        "restitution",
+        dim::DIMENSIONLESS,
+        Some(0.0),
+        Range::Closed(0.0, 1.0),
+        "",
+        "coefficient of restitution at the stops",
+    ),
     ParamSpec::quantity("x0", dim::LENGTH, Some(0.0), Range::Any, "mm", "initial position"),
     ParamSpec::quantity("v0", dim::VELOCITY, Some(0.0), Range::Any, "m/s", "initial velocity"),
 ];

@@ -24,21 +24,91 @@ use crate::*;
 
 /// All block types.
 pub static TYPES: &[BlockType] = &[
-    BlockType { name: "chamber", doc: "variable-volume pneumatic capacity (Eq. 5-17)", params: chamber::PARAMS, build: |p| boxed(chamber::Chamber::from_params(p)) },
-    BlockType { name: "conductance", doc: "ISO 6358 restriction (Eq. 33-35)", params: conductance::PARAMS, build: |p| boxed(conductance::Conductance::from_params(p)) },
-    BlockType { name: "check_valve", doc: "one-way restriction with cracking pressure", params: check_valve::PARAMS, build: |p| boxed(check_valve::CheckValve::from_params(p)) },
-    BlockType { name: "speed_control_valve", doc: "throttle in parallel with a check valve", params: speed_control_valve::PARAMS, build: |p| boxed(speed_control_valve::SpeedControlValve::from_params(p)) },
-    BlockType { name: "valve_5_2", doc: "5/2 directional valve", params: directional_valve::PARAMS_5_2, build: |p| boxed(directional_valve::DirectionalValve::five_two(p)) },
-    BlockType { name: "valve_3_2", doc: "3/2 directional valve", params: directional_valve::PARAMS_3_2, build: |p| boxed(directional_valve::DirectionalValve::three_two(p)) },
-    BlockType { name: "valve_2_2", doc: "2/2 directional valve", params: directional_valve::PARAMS_2_2, build: |p| boxed(directional_valve::DirectionalValve::two_two(p)) },
-    BlockType { name: "pressure_source", doc: "reservoir at fixed p and T (supply)", params: pressure_source::PARAMS, build: |p| boxed(pressure_source::PressureSource::from_params(p, "pressure_source")) },
-    BlockType { name: "atmosphere", doc: "ambient reservoir (exhaust)", params: pressure_source::ATMOSPHERE_PARAMS, build: |p| boxed(pressure_source::PressureSource::from_params(p, "atmosphere")) },
-    BlockType { name: "mass_flow_source", doc: "prescribed mass flow into a node", params: mass_flow_source::PARAMS, build: |p| boxed(mass_flow_source::MassFlowSource::from_params(p)) },
-    BlockType { name: "piston", doc: "moving mass with end stops", params: piston::PARAMS, build: |p| boxed(piston::Piston::from_params(p)) },
-    BlockType { name: "friction", doc: "seal friction, Eq. 37, stick-slip (Karnopp 1985)", params: friction::PARAMS, build: |p| boxed(friction::Friction::from_params(p)) },
+    BlockType {
+        name: "chamber",
+        doc: "variable-volume pneumatic capacity (Eq. 5-17)",
+        params: chamber::PARAMS,
+        build: |p| boxed(chamber::Chamber::from_params(p)),
+    },
+    BlockType {
+        name: "conductance",
+        doc: "ISO 6358 restriction (Eq. 33-35)",
+        params: conductance::PARAMS,
+        build: |p| boxed(conductance::Conductance::from_params(p)),
+    },
+    BlockType {
+        name: "check_valve",
+        doc: "one-way restriction with cracking pressure",
+        params: check_valve::PARAMS,
+        build: |p| boxed(check_valve::CheckValve::from_params(p)),
+    },
+    BlockType {
+        name: "speed_control_valve",
+        doc: "throttle in parallel with a check valve",
+        params: speed_control_valve::PARAMS,
+        build: |p| boxed(speed_control_valve::SpeedControlValve::from_params(p)),
+    },
+    BlockType {
+        name: "valve_5_2",
+        doc: "5/2 directional valve",
+        params: directional_valve::PARAMS_5_2,
+        build: |p| boxed(directional_valve::DirectionalValve::five_two(p)),
+    },
+    BlockType {
+        name: "valve_3_2",
+        doc: "3/2 directional valve",
+        params: directional_valve::PARAMS_3_2,
+        build: |p| boxed(directional_valve::DirectionalValve::three_two(p)),
+    },
+    BlockType {
+        name: "valve_2_2",
+        doc: "2/2 directional valve",
+        params: directional_valve::PARAMS_2_2,
+        build: |p| boxed(directional_valve::DirectionalValve::two_two(p)),
+    },
+    BlockType {
+        name: "pressure_source",
+        doc: "reservoir at fixed p and T (supply)",
+        params: pressure_source::PARAMS,
+        build: |p| boxed(pressure_source::PressureSource::from_params(p, "pressure_source")),
+    },
+    BlockType {
+        name: "atmosphere",
+        doc: "ambient reservoir (exhaust)",
+        params: pressure_source::ATMOSPHERE_PARAMS,
+        build: |p| boxed(pressure_source::PressureSource::from_params(p, "atmosphere")),
+    },
+    BlockType {
+        name: "mass_flow_source",
+        doc: "prescribed mass flow into a node",
+        params: mass_flow_source::PARAMS,
+        build: |p| boxed(mass_flow_source::MassFlowSource::from_params(p)),
+    },
+    BlockType {
+        name: "piston",
+        doc: "moving mass with end stops",
+        params: piston::PARAMS,
+        build: |p| boxed(piston::Piston::from_params(p)),
+    },
+    BlockType {
+        name: "friction",
+        doc: "seal friction, Eq. 37, stick-slip (Karnopp 1985)",
+        params: friction::PARAMS,
+        build: |p| boxed(friction::Friction::from_params(p)),
+    },
     BlockType { name: "spring", doc: "linear return spring", params: spring::PARAMS, build: |p| boxed(spring::Spring::from_params(p)) },
-    BlockType { name: "schedule", doc: "time-table command signal", params: schedule::PARAMS, build: |p| boxed(schedule::Schedule::from_params(p)) },
-    BlockType { name: "cycler", doc: "limit-switch cycler (extend/retract for N cycles)", params: cycler::PARAMS, build: |p| boxed(cycler::Cycler::from_params(p)) },
+    BlockType {
+        name: "schedule",
+        doc: "time-table command signal",
+        params: schedule::PARAMS,
+        build: |p| boxed(schedule::Schedule::from_params(p)),
+    },
+    BlockType {
+        name: "cycler",
+        doc: "limit-switch cycler (extend/retract for N cycles)",
+        params: cycler::PARAMS,
+        build: |p| boxed(cycler::Cycler::from_params(p)),
+    },
 ];
 
 /// Look up a block type by name.

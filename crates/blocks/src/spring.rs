@@ -33,11 +33,7 @@ pub struct Spring {
 
 impl Spring {
     pub fn from_params(p: &Params) -> Result<Self, crate::BlockError> {
-        Ok(Spring {
-            stiffness: p.get("stiffness"),
-            preload: p.get("preload"),
-            sigma: if p.choice("direction") == 0 { -1.0 } else { 1.0 },
-        })
+        Ok(Spring { stiffness: p.get("stiffness"), preload: p.get("preload"), sigma: if p.choice("direction") == 0 { -1.0 } else { 1.0 } })
     }
     pub fn force(&self, x: f64) -> f64 {
         self.sigma * (self.preload + self.stiffness * x)

@@ -108,7 +108,10 @@ pub fn gas_model(choice: &crate::netlist::GasChoice) -> Arc<dyn GasModel> {
 }
 
 fn valid_id(id: &str) -> bool {
-    !id.is_empty() && id.chars().all(|c| c.is_ascii_alphanumeric() || c == '_' || c == '-' || c == '.') && !id.starts_with('.') && !id.ends_with('.')
+    !id.is_empty()
+        && id.chars().all(|c| c.is_ascii_alphanumeric() || c == '_' || c == '-' || c == '.')
+        && !id.starts_with('.')
+        && !id.ends_with('.')
 }
 
 struct UnionFind(Vec<usize>);
@@ -141,10 +144,9 @@ pub fn build(flat: &FlatNetlist) -> Result<Circuit, GraphError> {
         if c.kind == "subsystem" {
             return Err(GraphError::Subsystem { id: c.id.clone(), message: "subsystem was not expanded".into() });
         }
-        let raw: Vec<(String, blocks::RawValue)> =
-            c.params.iter().chain(c.init.iter()).map(|(k, v)| (k.clone(), v.to_raw())).collect();
+        let raw: Vec<(String, blocks::RawValue)> = c.params.iter().chain(c.init.iter()).map(|(k, v)| (k.clone(), v.to_raw())).collect();
         let block = blocks::registry::build(&c.kind, raw.iter().map(|(k, v)| (k.as_str(), v)))
-            .map_err(|source| GraphError::Block { id: c.id.clone(), source })?;
+            .map_err(|source| GraphError::Block { id: c.id.clone(), source: Box::new(source) })?;
         let n = block.ports().len();
         instances.push(Instance { id: c.id.clone(), block, port_nodes: vec![None; n], signal_sources: Vec::new() });
     }
@@ -254,11 +256,7 @@ pub fn build(flat: &FlatNetlist) -> Result<Circuit, GraphError> {
         match efforts.len() {
             0 => node.causality = NodeCausality::Junction,
             1 => node.causality = NodeCausality::Effort(efforts[0]),
-            _ => {
-                return Err(GraphError::DerivativeCausality {
-                    ports: efforts.iter().map(|&r| name_of(r)).collect::<Vec<_>>().join(", "),
-                })
-            }
+            _ => return Err(GraphError::DerivativeCausality { ports: efforts.iter().map(|&r| name_of(r)).collect::<Vec<_>>().join(", ") }),
         }
     }
     let junction_clusters = junction_clusters(&instances, &pneumatic_nodes, &name_of)?;
@@ -336,8 +334,8 @@ fn junction_clusters(
         }
     }
     let mut clusters: BTreeMap<usize, Vec<usize>> = BTreeMap::new();
-    for i in 0..n {
-        if nodes[i].causality == NodeCausality::Junction {
+    for (i, node) in nodes.iter().enumerate() {
+        if node.causality == NodeCausality::Junction {
             clusters.entry(uf.find(i)).or_default().push(i);
         }
     }

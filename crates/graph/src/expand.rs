@@ -49,7 +49,10 @@ pub fn load(loader: &dyn Loader, path: &Path) -> Result<FlatNetlist, GraphError>
 /// Expand a parsed netlist whose subsystem files are relative to `dir`.
 pub fn flatten(loader: &dyn Loader, netlist: &Netlist, dir: &Path, depth: usize) -> Result<FlatNetlist, GraphError> {
     if depth > 16 {
-        return Err(GraphError::Subsystem { id: netlist.name.clone().unwrap_or_default(), message: "subsystems nested more than 16 deep (a file including itself?)".into() });
+        return Err(GraphError::Subsystem {
+            id: netlist.name.clone().unwrap_or_default(),
+            message: "subsystems nested more than 16 deep (a file including itself?)".into(),
+        });
     }
     let mut components = Vec::new();
     let mut connections = Vec::new();
@@ -60,7 +63,8 @@ pub fn flatten(loader: &dyn Loader, netlist: &Netlist, dir: &Path, depth: usize)
             components.push(c.clone());
             continue;
         }
-        let file = c.file.as_deref().ok_or_else(|| GraphError::Subsystem { id: c.id.clone(), message: "a subsystem needs \"file\"".into() })?;
+        let file =
+            c.file.as_deref().ok_or_else(|| GraphError::Subsystem { id: c.id.clone(), message: "a subsystem needs \"file\"".into() })?;
         let path = dir.join(file);
         let text = loader.read(&path).map_err(|message| GraphError::Io { file: path.display().to_string(), message })?;
         let sub = parse(&text, &path.display().to_string())?;
@@ -76,7 +80,8 @@ pub fn flatten(loader: &dyn Loader, netlist: &Netlist, dir: &Path, depth: usize)
                 ),
             })?;
             for target in targets {
-                let (tid, tparam) = split_ref(target).ok_or_else(|| GraphError::Subsystem { id: c.id.clone(), message: format!("bad interface target \"{target}\"") })?;
+                let (tid, tparam) = split_ref(target)
+                    .ok_or_else(|| GraphError::Subsystem { id: c.id.clone(), message: format!("bad interface target \"{target}\"") })?;
                 let comp = inner.components.iter_mut().find(|ic| ic.id == tid).ok_or_else(|| GraphError::Subsystem {
                     id: c.id.clone(),
                     message: format!("interface parameter \"{name}\" points to unknown component \"{tid}\""),

@@ -26,7 +26,7 @@ pub enum GraphError {
     #[error("cannot read {file}: {message}")]
     Io { file: String, message: String },
     #[error("component \"{id}\": {source}")]
-    Block { id: String, source: blocks::BlockError },
+    Block { id: String, source: Box<blocks::BlockError> },
     #[error("subsystem \"{id}\": {message}")]
     Subsystem { id: String, message: String },
     #[error("--set {assignment}: {message}")]
@@ -51,7 +51,9 @@ pub enum GraphError {
     SignalDriven { reference: String },
     #[error("port \"{reference}\" is not connected ({doc})")]
     Unconnected { reference: String, doc: String },
-    #[error("{ports} both impose pressure on one node (derivative causality): join them through a conductance, or merge them into one chamber")]
+    #[error(
+        "{ports} both impose pressure on one node (derivative causality): join them through a conductance, or merge them into one chamber"
+    )]
     DerivativeCausality { ports: String },
     #[error("node of {ports} has neither a capacity nor a source: its pressure is undefined")]
     FloatingNode { ports: String },

@@ -21,10 +21,16 @@ pub fn causality_table(c: &Circuit) -> String {
     let mut s = String::new();
     let _ = writeln!(s, "circuit {} — gas model {}", c.name, c.gas.name());
     let _ = writeln!(s, "\ncomponents ({}):", c.instances.len());
-    let _ = writeln!(s, "  {:<18} {:<20} {}", "id", "type", "states");
+    let _ = writeln!(s, "  {:<18} {:<20} states", "id", "type");
     for inst in &c.instances {
         let states: Vec<String> = inst.block.states().iter().map(|st| format!("{} [{}]", st.name, st.unit)).collect();
-        let _ = writeln!(s, "  {:<18} {:<20} {}", inst.id, inst.block.type_name(), if states.is_empty() { "-".into() } else { states.join(", ") });
+        let _ = writeln!(
+            s,
+            "  {:<18} {:<20} {}",
+            inst.id,
+            inst.block.type_name(),
+            if states.is_empty() { "-".into() } else { states.join(", ") }
+        );
     }
     let _ = writeln!(s, "\npneumatic nodes ({}):", c.pneumatic_nodes.len());
     for (i, node) in c.pneumatic_nodes.iter().enumerate() {
@@ -74,7 +80,12 @@ pub fn dot(c: &Circuit) -> String {
         };
         let _ = writeln!(s, "  \"P{i}\" [shape={shape}, label=\"P{i}\", width=0.3];");
         for &r in &node.ports {
-            let _ = writeln!(s, "  \"{}\" -> \"P{i}\" [dir=none, label=\"{}\"];", c.instances[r.block].id, c.instances[r.block].block.ports()[r.port].name);
+            let _ = writeln!(
+                s,
+                "  \"{}\" -> \"P{i}\" [dir=none, label=\"{}\"];",
+                c.instances[r.block].id,
+                c.instances[r.block].block.ports()[r.port].name
+            );
         }
     }
     for (i, node) in c.mechanical_nodes.iter().enumerate() {

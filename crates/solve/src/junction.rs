@@ -130,11 +130,7 @@ fn solve_node(
     let (lo0, hi0, t_up) = neighbour_range(slots, attached, node, node_gas);
     let fail = |message: String| ModelError::Junction {
         t,
-        ports: attached
-            .iter()
-            .map(|&(bi, _)| circuit.instances[bi].id.clone())
-            .collect::<Vec<_>>()
-            .join(", "),
+        ports: attached.iter().map(|&(bi, _)| circuit.instances[bi].id.clone()).collect::<Vec<_>>().join(", "),
         message,
     };
     if !(lo0.is_finite() && hi0.is_finite() && lo0 > 0.0) {
@@ -200,7 +196,11 @@ fn solve_node(
         };
         p = if f_lo == 0.0 && f_hi == 0.0 {
             // no flow at all (all paths closed): any pressure balances; keep the previous one
-            if g.is_finite() { g.clamp(lo, hi) } else { 0.5 * (lo + hi) }
+            if g.is_finite() {
+                g.clamp(lo, hi)
+            } else {
+                0.5 * (lo + hi)
+            }
         } else if f_lo == 0.0 {
             lo
         } else if f_hi == 0.0 {

@@ -125,10 +125,7 @@ impl Model {
                 .signal_sources
                 .iter()
                 .map(|src| {
-                    let k = circuit.instances[src.block].block.ports()[..src.port]
-                        .iter()
-                        .filter(|p| p.kind == PortKind::SignalOut)
-                        .count();
+                    let k = circuit.instances[src.block].block.ports()[..src.port].iter().filter(|p| p.kind == PortKind::SignalOut).count();
                     sig_base[src.block] + k
                 })
                 .collect();
@@ -247,7 +244,20 @@ impl Model {
         self.evaluations += 1;
         let gas = self.gas.clone();
         let gas: &dyn GasModel = &*gas;
-        let Model { circuit, slots, node_gas, node_inflow, node_mech, node_forces, modes, signals, junction_ports, junction_guess, junction_step, .. } = self;
+        let Model {
+            circuit,
+            slots,
+            node_gas,
+            node_inflow,
+            node_mech,
+            node_forces,
+            modes,
+            signals,
+            junction_ports,
+            junction_guess,
+            junction_step,
+            ..
+        } = self;
 
         // 1. kinematics of inertias
         for (node, mn) in circuit.mechanical_nodes.iter().enumerate() {

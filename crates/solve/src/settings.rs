@@ -8,7 +8,9 @@ fn seconds(v: &Option<Value>, name: &str, default: f64) -> Result<f64, SolveErro
     match v {
         None => Ok(default),
         Some(Value::Number(x)) => Ok(*x),
-        Some(Value::Text(s)) => units::parse_quantity(s, dim::TIME).map_err(|e| SolveError::Settings(format!("simulation.{name} = \"{s}\": {e}"))),
+        Some(Value::Text(s)) => {
+            units::parse_quantity(s, dim::TIME).map_err(|e| SolveError::Settings(format!("simulation.{name} = \"{s}\": {e}")))
+        }
         Some(Value::List(_)) => Err(SolveError::Settings(format!("simulation.{name} must be a single value"))),
     }
 }
@@ -24,7 +26,7 @@ pub fn options_from(sim: &Simulation) -> Result<SimOptions, SolveError> {
     let t_end = seconds(&sim.t_end, "t_end", default_end)?;
     let sample_interval = seconds(&sim.sample_interval, "sample_interval", 1e-3)?;
     let max_step = seconds(&sim.max_step, "max_step", 0.05)?;
-    if !(t_end > 0.0) {
+    if t_end.is_nan() || t_end <= 0.0 {
         return Err(SolveError::Settings(format!("simulation.t_end must be > 0 s, got {t_end}")));
     }
     if sample_interval < 0.0 || max_step <= 0.0 {

@@ -165,15 +165,8 @@ pub fn simulate(model: &mut Model, opts: &SimOptions) -> Result<SimResult, Solve
     for a in atol[n - N_QUADRATURE..].iter_mut() {
         *a = 1e30; // balance quadratures do not steer the step size
     }
-    let options = Options {
-        rtol: opts.rtol,
-        atol,
-        h_init: None,
-        h_max: opts.max_step,
-        h_min: 1e-14,
-        max_steps: 50_000_000,
-        root_tol: 1e-12,
-    };
+    let options =
+        Options { rtol: opts.rtol, atol, h_init: None, h_max: opts.max_step, h_min: 1e-14, max_steps: 50_000_000, root_tol: 1e-12 };
     let mut integrator = Rosenbrock::new(options, n);
     let mut t = 0.0;
     let mut result = SimResult {
@@ -205,12 +198,7 @@ pub fn simulate(model: &mut Model, opts: &SimOptions) -> Result<SimResult, Solve
     let mut n_events = 0usize;
     let mut finished = false;
     while !finished {
-        let t_time_event = model
-            .circuit
-            .instances
-            .iter()
-            .filter_map(|i| i.block.next_time_event(t))
-            .fold(f64::INFINITY, f64::min);
+        let t_time_event = model.circuit.instances.iter().filter_map(|i| i.block.next_time_event(t)).fold(f64::INFINITY, f64::min);
         let t_stop = opts.t_end.min(t_time_event);
         let mut samples: Vec<(f64, Vec<f64>)> = Vec::new();
         let advance = {
@@ -320,7 +308,14 @@ fn handle_block_event(model: &mut Model, bi: usize, kind: EventKind, t: f64, y: 
     // the context must outlive the mutable borrow of the block: copy the buffers
     let slot = model.slots[bi].clone();
     let gas = model.gas.clone();
-    let ctx = blocks::block::Ctx { t, gas: &*gas, states: &y[slot.states.clone()], pneumatic: &slot.gas, mechanical: &slot.mech, signals: &slot.sig };
+    let ctx = blocks::block::Ctx {
+        t,
+        gas: &*gas,
+        states: &y[slot.states.clone()],
+        pneumatic: &slot.gas,
+        mechanical: &slot.mech,
+        signals: &slot.sig,
+    };
     let inst = &mut model.circuit.instances[bi];
     let outcome = inst.block.on_event(kind, &ctx);
     if let Some(note) = outcome.note {
