@@ -14,6 +14,7 @@ pub mod chamber;
 pub mod check_valve;
 pub mod conductance;
 pub mod cycler;
+pub mod delay;
 pub mod directional_valve;
 pub mod friction;
 pub mod iso6358;

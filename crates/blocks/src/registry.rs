@@ -109,6 +109,12 @@ pub static TYPES: &[BlockType] = &[
         params: cycler::PARAMS,
         build: |p| boxed(cycler::Cycler::from_params(p)),
     },
+    BlockType {
+        name: "delay",
+        doc: "transport delay of a piecewise-constant signal",
+        params: delay::PARAMS,
+        build: |p| boxed(delay::Delay::from_params(p)),
+    },
 ];
 
 /// Look up a block type by name.

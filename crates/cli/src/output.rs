@@ -32,9 +32,7 @@ pub fn select_columns(result: &SimResult, wanted: &[String]) -> Result<Vec<usize
     wanted
         .iter()
         .map(|w| {
-            result.column(w).ok_or_else(|| {
-                CliError::Usage(format!("unknown signal \"{w}\" (available: {})", result.columns.join(", ")))
-            })
+            result.column(w).ok_or_else(|| CliError::Usage(format!("unknown signal \"{w}\" (available: {})", result.columns.join(", "))))
         })
         .collect()
 }

@@ -827,7 +827,14 @@ mod clip_tests {
         let mut f = Figure {
             title: String::new(),
             x_desc: String::new(),
-            panels: vec![Panel { y_desc: String::new(), traces: vec![Trace { label: "n".into(), points: vec![(0.0, Some(1.2)), (1.0, Some(300.0)), (2.0, Some(-5.0)), (3.0, Some(1.4))], markers: false }] }],
+            panels: vec![Panel {
+                y_desc: String::new(),
+                traces: vec![Trace {
+                    label: "n".into(),
+                    points: vec![(0.0, Some(1.2)), (1.0, Some(300.0)), (2.0, Some(-5.0)), (3.0, Some(1.4))],
+                    markers: false,
+                }],
+            }],
             note: None,
         };
         clip_vertical(&mut f, 0.5, 2.0);

@@ -1,8 +1,8 @@
 //! `pneumo simulate`: one run, written as CSV traces and a JSON summary.
 
 use crate::error::CliError;
-use crate::output::{csv, select_columns, summary, write_atomic};
 use crate::load::flat_netlist;
+use crate::output::{csv, select_columns, summary, write_atomic};
 use crate::run::{execute, prepare, RunSpec};
 use std::path::PathBuf;
 
@@ -47,10 +47,7 @@ pub fn run(a: &SimulateArgs) -> Result<(), CliError> {
     let all: Vec<usize> = (0..r.result.columns.len()).collect();
     // build everything before writing anything
     let csv_text = a.out.as_ref().map(|_| csv(&r.result, &columns));
-    let summary_text = a
-        .summary
-        .as_ref()
-        .map(|_| serde_json::to_string_pretty(&summary(&r.result, &r.name, &all)).unwrap_or_default());
+    let summary_text = a.summary.as_ref().map(|_| serde_json::to_string_pretty(&summary(&r.result, &r.name, &all)).unwrap_or_default());
     let plot_bytes = match &a.plot {
         Some(path) => Some(crate::plot::traces_image(&r.result, &columns, path)?),
         None => None,

@@ -23,7 +23,15 @@ fn main() {
             let r = solve::simulate(&mut m, &opts).unwrap();
             let el = t0.elapsed();
             let x = r.series("piston.x").unwrap();
-            println!("rtol {rtol:e} si {si} p {sup}: {:.1} ms, {} rows, {} evals, steps {:?}, cycles {}, x_end {:.4}", el.as_secs_f64() * 1e3, r.times.len(), r.rhs_evaluations, r.stats, r.cycles.len(), x.last().unwrap().1);
+            println!(
+                "rtol {rtol:e} si {si} p {sup}: {:.1} ms, {} rows, {} evals, steps {:?}, cycles {}, x_end {:.4}",
+                el.as_secs_f64() * 1e3,
+                r.times.len(),
+                r.rhs_evaluations,
+                r.stats,
+                r.cycles.len(),
+                x.last().unwrap().1
+            );
         }
     }
 }

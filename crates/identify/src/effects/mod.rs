@@ -11,7 +11,7 @@
 //! |---|---|---|
 //! | `piston_seal_leak` | ISO 6358 conductance between the two chambers | C (0) |
 //! | `dead_volume` | extra volume in either chamber | extra_head, extra_rod (0, 0) |
-//! | `valve_delay` | spool switching time of the directional valve | T (0) |
+//! | `valve_delay` | dead time between command and valve (a `delay` block) | T (0) |
 //! | `stribeck_friction` | breakaway above the Coulomb level, decaying with speed | breakaway_ratio (1), stribeck_velocity |
 //! | `heat_transfer` | wall heat exchange, paper Eq. 8, in an adiabatic model | rate = 1/τ_T (0) |
 //! | `supply_droop` | finite supply line: conductance + volume before the valve | C_line (∞ ≙ upper bound), V_line |
@@ -63,6 +63,26 @@ pub struct EffectParam {
     /// only matters when another one is away from its null.
     pub null: Option<f64>,
     pub scale: Scale,
+    /// Values tried when looking for a starting point (the fit starts from
+    /// the best point of the grid formed by all parameters' scan values).
+    pub scan: &'static [f64],
+}
+
+/// The starting-point grid of an effect: every combination of its
+/// parameters' scan values (a parameter without scan values keeps `start`).
+pub fn scan_grid(params: &[EffectParam]) -> Vec<Vec<f64>> {
+    let mut grid: Vec<Vec<f64>> = vec![vec![]];
+    for p in params {
+        let values: Vec<f64> = if p.scan.is_empty() { vec![p.start] } else { p.scan.to_vec() };
+        grid = grid.iter().flat_map(|g| values.iter().map(move |v| {
+            let mut h = g.clone();
+            h.push(*v);
+            h
+        })).collect();
+    }
+    // the all-null point is the model without the effect: not a start
+    grid.retain(|g| !params.iter().zip(g).all(|(p, v)| p.null == Some(*v)));
+    grid
 }
 
 /// Why an effect could not be applied.
@@ -179,9 +199,20 @@ pub(crate) mod tests {
                     assert!(p.lo <= n && n <= p.hi, "{}.{}", e.name(), p.name);
                     assert!(n != p.start, "{}.{} starts at its null (no gradient there)", e.name(), p.name);
                 }
+                assert!(p.scan.iter().all(|v| (p.lo..=p.hi).contains(v)), "{}.{} scan outside bounds", e.name(), p.name);
             }
             assert!(by_name(e.name()).is_some());
         }
+    }
+
+    #[test]
+    fn the_scan_grid_is_the_product_without_the_null_point() {
+        let p = |name, null, scan| EffectParam { name, unit: "", lo: 0.0, hi: 10.0, start: 1.0, typical: 1.0, null, scale: Scale::Linear, scan };
+        let g = scan_grid(&[p("a", Some(0.0), &[0.0, 1.0, 2.0]), p("b", Some(0.0), &[0.0, 5.0])]);
+        assert_eq!(g, vec![vec![0.0, 5.0], vec![1.0, 0.0], vec![1.0, 5.0], vec![2.0, 0.0], vec![2.0, 5.0]]);
+        let g = scan_grid(&[p("a", Some(0.0), &[]), p("b", None, &[3.0, 4.0])]);
+        assert_eq!(g, vec![vec![1.0, 3.0], vec![1.0, 4.0]]);
+        assert_eq!(scan_grid(&[]), vec![Vec::<f64>::new()]);
     }
 
     #[test]

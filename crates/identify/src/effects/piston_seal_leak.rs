@@ -38,6 +38,7 @@ impl Effect for PistonSealLeak {
             typical: 0.5 * L_MIN_BAR,
             null: Some(0.0),
             scale: Scale::Linear,
+            scan: &[0.03 * L_MIN_BAR, 0.1 * L_MIN_BAR, 0.3 * L_MIN_BAR, 1.0 * L_MIN_BAR, 3.0 * L_MIN_BAR],
         }]
     }
     fn applies_to(&self, flat: &FlatNetlist) -> bool {
@@ -69,18 +70,23 @@ mod tests {
     use crate::effects::tests::{meter_out, run};
 
     #[test]
-    fn a_leak_feeds_the_rod_chamber_while_the_head_is_pressurised() {
-        // With the head at supply pressure and the piston moving, a leak into
-        // the rod side raises the rod pressure, which slows the stroke.
+    fn a_leak_speeds_up_the_meter_out_stroke() {
+        // Meter-out extend stroke: force balance puts the rod-side pressure
+        // above the head side (p₂ ≈ p₁·A₁/A₂ with A₁/A₂ = 1.125), so the leak
+        // drains the rod chamber towards the head and, with the throttle,
+        // lets the piston move faster: ρ₂A₂v = ṁ_throttle + ṁ_leak.
         let base = meter_out();
         let mut leaky = base.clone();
         PistonSealLeak.apply(&mut leaky, &[2.0 * L_MIN_BAR]).unwrap();
         assert!(leaky.components.iter().any(|c| c.kind == "conductance"));
         let (a, b) = (run(&base), run(&leaky));
-        let x = |r: &solve::SimResult| r.series("piston.x").unwrap().last().unwrap().1;
-        let p2 = |r: &solve::SimResult| r.series("rod.p").unwrap().last().unwrap().1;
-        assert!(x(&b) < x(&a), "stroke must be slower: {} vs {}", x(&b), x(&a));
-        assert!(p2(&b) > p2(&a), "rod pressure must be higher: {} vs {}", p2(&b), p2(&a));
+        let mean_v = |r: &solve::SimResult| {
+            let v: Vec<f64> = r.series("piston.v").unwrap().into_iter().filter(|(t, _)| (0.9..1.2).contains(t)).map(|(_, v)| v).collect();
+            v.iter().sum::<f64>() / v.len() as f64
+        };
+        let last = |r: &solve::SimResult, c: &str| r.series(c).unwrap().last().unwrap().1;
+        assert!(last(&a, "rod.p") > last(&a, "head.p"), "rod side above head side");
+        assert!(mean_v(&b) > 1.02 * mean_v(&a), "speed {} vs {}", mean_v(&b), mean_v(&a));
         // C = 0 adds nothing
         let mut same = base.clone();
         PistonSealLeak.apply(&mut same, &[0.0]).unwrap();

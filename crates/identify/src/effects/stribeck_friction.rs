@@ -26,8 +26,8 @@ impl Effect for StribeckFriction {
     }
     fn params(&self) -> Vec<EffectParam> {
         vec![
-            EffectParam { name: "breakaway_ratio", unit: "", lo: 1.0, hi: 5.0, start: 1.3, typical: 1.0, null: Some(1.0), scale: Scale::Linear },
-            EffectParam { name: "stribeck_velocity", unit: "mm/s", lo: 1e-3, hi: 0.3, start: 0.02, typical: 0.02, null: None, scale: Scale::Log },
+            EffectParam { name: "breakaway_ratio", unit: "", lo: 1.0, hi: 5.0, start: 1.3, typical: 1.0, null: Some(1.0), scale: Scale::Linear, scan: &[1.3, 2.0, 3.0] },
+            EffectParam { name: "stribeck_velocity", unit: "mm/s", lo: 1e-3, hi: 0.3, start: 0.02, typical: 0.02, null: None, scale: Scale::Log, scan: &[0.005, 0.02, 0.08] },
         ]
     }
     fn applies_to(&self, flat: &FlatNetlist) -> bool {

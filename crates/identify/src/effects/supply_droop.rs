@@ -41,8 +41,9 @@ impl Effect for SupplyDroop {
                 typical: 300.0 * L_MIN_BAR,
                 null: Some(20_000.0 * L_MIN_BAR),
                 scale: Scale::Log,
+                scan: &[1000.0 * L_MIN_BAR, 300.0 * L_MIN_BAR, 100.0 * L_MIN_BAR, 40.0 * L_MIN_BAR],
             },
-            EffectParam { name: "V_line", unit: "L", lo: 1e-5, hi: 1e-2, start: 3e-4, typical: 3e-4, null: None, scale: Scale::Log },
+            EffectParam { name: "V_line", unit: "L", lo: 1e-5, hi: 1e-2, start: 3e-4, typical: 3e-4, null: None, scale: Scale::Log, scan: &[5e-5, 5e-4, 3e-3] },
         ]
     }
     fn applies_to(&self, flat: &FlatNetlist) -> bool {

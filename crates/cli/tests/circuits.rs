@@ -1,0 +1,326 @@
+//! The example circuits under models/ (issue "Composing circuits"): each one
+//! simulates and completes its cycles, and shows the physics it is there for.
+//!
+//! - tank_discharge: the choked phase lasts as long as the closed form of
+//!   adiabatic choked discharge says (paper Eq. 36 time τ_U), and the
+//!   discharge time scales exactly with V/C (Eq. 19: τ ∝ V/(γ C p_N)).
+//! - meter_out_subsystem: built from models/lib/cylinder.json, same cycle
+//!   times as models/meter_out.json.
+//! - meter_in: no cushion (the rod pressure never exceeds the supply during
+//!   extension, while meter-out compresses it above the supply) and the
+//!   steady speed is reached sooner than in meter-out.
+//! - single_acting_3_2: retracts under its spring (and does not without it).
+//! - double_acting_two_3_2: two 3/2 valves switch the same paths as one 5/2
+//!   valve, so the cycle times equal those of the 5/2 version.
+//! - `pneumo conductance` end to end: a noisy synthetic discharge gives back C
+//!   and b; a bad CSV is reported with file and line.
+
+use solve::SimResult;
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+struct Fs;
+impl graph::Loader for Fs {
+    fn read(&self, path: &Path) -> Result<String, String> {
+        std::fs::read_to_string(path).map_err(|e| e.to_string())
+    }
+}
+
+fn models() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../../models")
+}
+
+fn flat(name: &str, sets: &[&str]) -> graph::FlatNetlist {
+    let mut f = graph::load(&Fs, &models().join(name)).unwrap_or_else(|e| panic!("{name}: {e}"));
+    for s in sets {
+        graph::apply_set(&mut f, s).unwrap_or_else(|e| panic!("{name}: {e}"));
+    }
+    f
+}
+
+fn run_flat(f: &graph::FlatNetlist) -> SimResult {
+    let circuit = graph::build(f).unwrap_or_else(|e| panic!("{}: {e}", f.name));
+    let opts = solve::options_from(&circuit.simulation).expect("options");
+    let mut model = solve::Model::new(circuit);
+    solve::simulate(&mut model, &opts).unwrap_or_else(|e| panic!("{}: {e}", f.name))
+}
+
+/// Run a model; a cycling model must complete the cycles its netlist asks for.
+fn run(name: &str, sets: &[&str]) -> SimResult {
+    let f = flat(name, sets);
+    let want = f.simulation.cycles;
+    let r = run_flat(&f);
+    if let Some(n) = want {
+        assert_eq!(r.cycles.len() as u64, n, "{name}: cycles completed");
+    }
+    r
+}
+
+fn series(r: &SimResult, name: &str) -> Vec<(f64, f64)> {
+    r.series(name).unwrap_or_else(|| panic!("no column {name} in {:?}", r.columns))
+}
+
+/// First time the series falls through `level` (linear interpolation).
+fn crossing_down(s: &[(f64, f64)], level: f64) -> f64 {
+    for w in s.windows(2) {
+        let ((t0, v0), (t1, v1)) = (w[0], w[1]);
+        if v0 >= level && v1 < level {
+            return t0 + (t1 - t0) * (v0 - level) / (v0 - v1);
+        }
+    }
+    panic!("never falls below {level}");
+}
+
+fn rel(a: f64, b: f64) -> f64 {
+    (a - b).abs() / b.abs()
+}
+
+fn print_cycles(name: &str, r: &SimResult) {
+    for (i, c) in r.cycles.iter().enumerate() {
+        eprintln!("{name} cycle {}: extend {:.4} s, retract {:.4} s, total {:.4} s", i + 1, c.extend, c.retract, c.total);
+    }
+}
+
+// ---------------------------------------------------------------- tank
+
+#[test]
+fn tank_discharge_choked_phase_and_v_over_c_scaling() {
+    let r = run("tank_discharge.json", &[]);
+    let p = series(&r, "tank.p");
+    // Numbers of the model file.
+    let (v, c, b, p0, p_atm, t0): (f64, f64, f64, f64, f64, f64) = (1e-3, 100e-3 / 60.0 / 1e5, 0.3, 7e5, 1.013e5, 293.15);
+    let gamma = 1004.85 / 717.8;
+    let p_n = 1.185 * 287.05 * 293.15;
+    let tau_u = (293.15_f64 / t0).sqrt() * v / (gamma * c * p_n);
+    // Choked until p = p_atm/b: from the closed form p0[1 + k t/τ]^(−1/k),
+    // k = (γ−1)/(2γ): t* = τ/k·((p0 b/p_atm)^k − 1).
+    let k = (gamma - 1.0) / (2.0 * gamma);
+    let t_choked = tau_u / k * ((p0 * b / p_atm).powf(k) - 1.0);
+    let t_sim = crossing_down(&p, p_atm / b);
+    eprintln!("tank: tau_U = {tau_u:.4} s, choked phase {t_sim:.4} s (closed form {t_choked:.4} s)");
+    assert!(rel(t_sim, t_choked) < 1e-4, "{t_sim} vs {t_choked}");
+    // The pressure ends at the atmosphere and falls monotonically.
+    assert!(p.windows(2).all(|w| w[1].1 <= w[0].1 + 1e-6));
+    assert!(rel(p[p.len() - 1].1, p_atm) < 1e-6);
+    // Discharge time (excess pressure down to 1 % of the initial excess)
+    // scales with V/C: doubling V doubles it, doubling C halves it.
+    let level = p_atm + 0.01 * (p0 - p_atm);
+    let t_base = crossing_down(&p, level);
+    let p_2v = series(&run("tank_discharge.json", &["tank.dead_volume=2 L", "simulation.t_end=3"]), "tank.p");
+    let p_2c = series(&run("tank_discharge.json", &["orifice.C=200 L/min/bar"]), "tank.p");
+    let (t_2v, t_2c) = (crossing_down(&p_2v, level), crossing_down(&p_2c, level));
+    eprintln!("tank: discharge time {t_base:.4} s, 2V {t_2v:.4} s, 2C {t_2c:.4} s");
+    assert!(rel(t_2v, 2.0 * t_base) < 2e-3, "{t_2v} vs 2·{t_base}");
+    assert!(rel(t_2c, 0.5 * t_base) < 2e-3, "{t_2c} vs {t_base}/2");
+    // and it is a few τ_U (Eq. 19 gives the order of magnitude).
+    assert!(t_base > tau_u && t_base < 5.0 * tau_u);
+}
+
+// ---------------------------------------------------------------- meter-out / meter-in
+
+#[test]
+fn meter_out_from_subsystem_matches_flat_meter_out() {
+    let flat_r = run("meter_out.json", &[]);
+    let sub_r = run("meter_out_subsystem.json", &[]);
+    print_cycles("meter_out_subsystem", &sub_r);
+    assert_eq!(flat_r.cycles.len(), sub_r.cycles.len());
+    for (a, b) in flat_r.cycles.iter().zip(&sub_r.cycles) {
+        assert!(rel(b.extend, a.extend) < 1e-9 && rel(b.retract, a.retract) < 1e-9 && rel(b.total, a.total) < 1e-9, "{a:?} vs {b:?}");
+    }
+    // Same traces too, under the subsystem's prefixed names.
+    let (pa, pb) = (series(&flat_r, "rod.p"), series(&sub_r, "cyl.rod.p"));
+    assert_eq!(pa.len(), pb.len());
+    assert!(pa.iter().zip(&pb).all(|(a, b)| (a.1 - b.1).abs() <= 1e-6 * a.1));
+}
+
+/// Time from the extend command of cycle `i` until the speed stays within
+/// 5 % of the mean stroke speed (mean over the middle half of the stroke)
+/// up to 90 % of the stroke; and that mean speed.
+fn time_to_steady_speed(r: &SimResult, prefix: &str, stroke: f64, i: usize) -> (f64, f64) {
+    let cyc = &r.cycles[i];
+    let (t_a, t_b) = (cyc.start, cyc.start + cyc.extend);
+    let x = series(r, &format!("{prefix}piston.x"));
+    let v = series(r, &format!("{prefix}piston.v"));
+    let seg: Vec<(f64, f64, f64)> =
+        x.iter().zip(&v).filter(|(xs, _)| xs.0 > t_a && xs.0 <= t_b).map(|(xs, vs)| (xs.0, xs.1, vs.1)).collect();
+    let t_at = |frac: f64| seg.iter().find(|s| s.1 >= frac * stroke).map(|s| s.0).expect("position reached");
+    let v_mean = 0.5 * stroke / (t_at(0.75) - t_at(0.25));
+    let within = |s: &(f64, f64, f64)| s.1 >= 0.9 * stroke || (s.2 - v_mean).abs() < 0.05 * v_mean;
+    let k = (0..seg.len()).find(|&k| seg[k..].iter().all(within)).expect("steady phase");
+    (seg[k].0 - t_a, v_mean)
+}
+
+#[test]
+fn meter_in_has_no_cushion_and_reaches_steady_speed_sooner() {
+    let out = run("meter_out.json", &[]);
+    let inn = run("meter_in.json", &[]);
+    print_cycles("meter_in", &inn);
+    let supply = 4e5;
+    // Rod-side pressure peak during the extensions (command = 1).
+    let peak = |r: &SimResult, rod: &str| {
+        let cmd = series(r, "controller.command");
+        let p = series(r, rod);
+        cmd.iter().zip(&p).filter(|(c, _)| c.1 > 0.5).map(|(_, p)| p.1).fold(0.0, f64::max)
+    };
+    let (peak_out, peak_in) = (peak(&out, "rod.p"), peak(&inn, "cyl.rod.p"));
+    eprintln!("rod-side peak during extension: meter-out {:.4} bar, meter-in {:.4} bar", peak_out / 1e5, peak_in / 1e5);
+    assert!(peak_out > 1.02 * supply, "meter-out cushion: {peak_out}");
+    assert!(peak_in <= supply * (1.0 + 1e-9), "meter-in: {peak_in}");
+    assert!(peak_in < peak_out);
+    // Steady speed sooner (second cycle: starts from the settled state).
+    let (ts_out, v_out) = time_to_steady_speed(&out, "", 0.45, 1);
+    let (ts_in, v_in) = time_to_steady_speed(&inn, "cyl.", 0.45, 1);
+    eprintln!("steady speed after: meter-out {ts_out:.4} s (v = {v_out:.4} m/s), meter-in {ts_in:.4} s (v = {v_in:.4} m/s)");
+    assert!(ts_in < ts_out, "{ts_in} vs {ts_out}");
+    // Throttling the inflow: the head pressure stays well below the supply
+    // during the stroke (meter-out keeps it at the supply).
+    let head_mid = |r: &SimResult, name: &str| {
+        let c = &r.cycles[1];
+        let tm = c.start + 0.5 * c.extend;
+        series(r, name).iter().find(|s| s.0 >= tm).map(|s| s.1).expect("sample")
+    };
+    assert!(head_mid(&inn, "cyl.head.p") < 0.8 * supply);
+    assert!(head_mid(&out, "head.p") > 0.95 * supply);
+}
+
+// ---------------------------------------------------------------- single-acting
+
+#[test]
+fn single_acting_retracts_under_its_spring() {
+    let r = run("single_acting_3_2.json", &[]);
+    print_cycles("single_acting_3_2", &r);
+    let x = series(&r, "cyl.piston.x");
+    let head = series(&r, "cyl.head.p");
+    let rod = series(&r, "cyl.rod.p");
+    let cmd = series(&r, "controller.command");
+    for c in &r.cycles {
+        assert!(c.extend > 0.0 && c.retract > 0.0);
+        // Back at x = 0 at the end of the retract stroke (after the 0.1 s
+        // extended dwell), with the valve released.
+        let t_back = c.start + c.extend + 0.1 + c.retract;
+        let i = x.iter().position(|s| s.0 >= t_back - 1e-9).expect("sample");
+        assert!(x[i].1 < 1e-4, "x = {} at {}", x[i].1, x[i].0);
+        assert!(cmd[i].1 < 0.5);
+        // The spring has pushed the head air out: its gauge pressure is below
+        // what the spring preload (30 N) can hold on the 32 mm bore.
+        let a_head = std::f64::consts::PI / 4.0 * 0.032_f64.powi(2);
+        assert!(head[i].1 < 0.98e5 + 30.0 / a_head, "head {} Pa", head[i].1);
+    }
+    // The vented rod side stays near ambient throughout.
+    assert!(rod.iter().all(|s| (s.1 - 0.98e5).abs() < 0.1e5), "rod side not vented");
+    // Without the spring nothing pulls it back: it stays extended.
+    let mut f = flat("single_acting_3_2.json", &["spring.preload=0", "spring.stiffness=0", "simulation.t_end=1"]);
+    f.simulation.cycles = None;
+    let r0 = run_flat(&f);
+    assert!(r0.cycles.is_empty());
+    let x0 = series(&r0, "cyl.piston.x");
+    assert!(x0[x0.len() - 1].1 > 0.0999, "x = {}", x0[x0.len() - 1].1);
+}
+
+// ---------------------------------------------------------------- two 3/2 valves
+
+#[test]
+fn two_3_2_valves_equal_one_5_2_valve() {
+    let r = run("double_acting_two_3_2.json", &[]);
+    print_cycles("double_acting_two_3_2", &r);
+    // The same circuit with one 5/2 valve of the same conductance.
+    let text = std::fs::read_to_string(models().join("double_acting_two_3_2.json")).expect("read");
+    let mut json: serde_json::Value = serde_json::from_str(&text).expect("json");
+    let comps = json["components"].as_array_mut().expect("components");
+    comps.retain(|c| c["id"] != "valve_head" && c["id"] != "valve_rod");
+    comps.push(serde_json::json!({ "id": "dcv", "type": "valve_5_2", "params": { "C": "100 L/min/bar", "b": 0.3 } }));
+    json["connections"] = serde_json::json!([
+        ["supply.port", "dcv.P"], ["dcv.A", "cyl.head_port"], ["dcv.B", "cyl.rod_port"],
+        ["dcv.EA", "exhaust.port"], ["dcv.EB", "exhaust.port"],
+        { "from": "cyl.x", "to": "controller.x" }, { "from": "controller.command", "to": "dcv.command" }
+    ]);
+    let netlist = graph::expand::parse(&json.to_string(), "five_two").expect("parse");
+    let f = graph::expand::flatten(&Fs, &netlist, &models(), 0).expect("flatten");
+    let r52 = run_flat(&f);
+    assert_eq!(r52.cycles.len(), r.cycles.len());
+    for (a, b) in r.cycles.iter().zip(&r52.cycles) {
+        assert!(rel(a.extend, b.extend) < 1e-6 && rel(a.retract, b.retract) < 1e-6, "{a:?} vs {b:?}");
+    }
+    // The head is pressurised while extending and the rod side exhausted.
+    let c = &r.cycles[1];
+    let t_end_ext = c.start + c.extend;
+    let at = |name: &str| series(&r, name).iter().find(|s| s.0 >= t_end_ext).map(|s| s.1).expect("sample");
+    assert!(at("cyl.head.p") > at("cyl.rod.p"));
+}
+
+// ---------------------------------------------------------------- pneumo conductance
+
+struct Scratch(PathBuf);
+impl Scratch {
+    fn new(tag: &str) -> Scratch {
+        let nanos = std::time::SystemTime::now().duration_since(std::time::UNIX_EPOCH).map(|d| d.as_nanos()).unwrap_or(0);
+        let dir = std::env::temp_dir().join(format!("pneumo-circuits-{tag}-{}-{nanos}", std::process::id()));
+        std::fs::create_dir_all(&dir).expect("scratch");
+        Scratch(dir)
+    }
+}
+impl Drop for Scratch {
+    fn drop(&mut self) {
+        let _ = std::fs::remove_dir_all(&self.0);
+    }
+}
+
+#[test]
+fn conductance_command_recovers_c_and_b_and_names_bad_lines() {
+    // Synthetic trace: tank_discharge with C = 80 L/min/bar, b = 0.4, plus
+    // Gaussian noise σ = 5 mbar from a seeded generator (SplitMix64 + Box–Muller).
+    let r = run("tank_discharge.json", &["orifice.C=80 L/min/bar", "orifice.b=0.4"]);
+    let p = series(&r, "tank.p");
+    let mut state = 2024u64;
+    let mut uniform = || {
+        state = state.wrapping_add(0x9E37_79B9_7F4A_7C15);
+        let mut z = state;
+        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+        z ^= z >> 31;
+        ((z >> 11) as f64 + 0.5) / (1u64 << 53) as f64
+    };
+    let mut text = String::from("t,p\n");
+    for (t, v) in &p {
+        let (u1, u2) = (uniform(), uniform());
+        let n = (-2.0 * u1.ln()).sqrt() * (2.0 * std::f64::consts::PI * u2).cos();
+        text.push_str(&format!("{t},{}\n", v + 500.0 * n));
+    }
+    let dir = Scratch::new("conductance");
+    let data = dir.0.join("discharge.csv");
+    std::fs::write(&data, &text).expect("write");
+    let out = Command::new(env!("CARGO_BIN_EXE_pneumo"))
+        .args(["conductance", "--volume", "1 L", "--p-atm", "1.013 bar", "--json", "--data"])
+        .arg(&data)
+        .output()
+        .expect("run pneumo");
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let rep: serde_json::Value = serde_json::from_slice(&out.stdout).expect("json report");
+    let c_true = 80e-3 / 60.0 / 1e5;
+    let c_a = rep["unloading"]["c"].as_f64().expect("c (a)");
+    let c_b = rep["model_fit"]["c"].as_f64().expect("c (b)");
+    let b_b = rep["model_fit"]["b"].as_f64().expect("b");
+    eprintln!(
+        "conductance CLI: (a) C error {:+.3} %, (b) C error {:+.3} %, b = {b_b:.4}",
+        100.0 * (c_a / c_true - 1.0),
+        100.0 * (c_b / c_true - 1.0)
+    );
+    assert!(rel(c_a, c_true) < 0.03 && rel(c_b, c_true) < 0.03);
+    assert!((b_b - 0.4).abs() < 0.05);
+    // Readable output names both methods.
+    let out = Command::new(env!("CARGO_BIN_EXE_pneumo"))
+        .args(["conductance", "--volume", "1 L", "--p-atm", "1.013 bar", "--data"])
+        .arg(&data)
+        .output()
+        .expect("run");
+    let s = String::from_utf8_lossy(&out.stdout);
+    assert!(s.contains("tau_U") && s.contains("(b) model fit") && s.contains("L/min (ANR)"), "{s}");
+    // A bad line is reported with file and line, non-zero exit.
+    let bad = dir.0.join("bad.csv");
+    std::fs::write(&bad, "t,p\n0,7e5\n0.001,6.9e5\n0.002,six\n").expect("write");
+    let out =
+        Command::new(env!("CARGO_BIN_EXE_pneumo")).args(["conductance", "--volume", "1 L", "--data"]).arg(&bad).output().expect("run");
+    assert!(!out.status.success());
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("bad.csv:4:") && err.contains("six"), "{err}");
+}
