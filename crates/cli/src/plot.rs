@@ -125,7 +125,7 @@ pub fn run(a: &PlotArgs) -> Result<(), CliError> {
         return Err(CliError::Usage("--y-range takes two numbers: LO,HI".into()));
     }
     if let [lo, hi] = a.y_range[..] {
-        if !(lo < hi) {
+        if lo.is_nan() || hi.is_nan() || lo >= hi {
             return Err(CliError::Usage(format!("--y-range needs LO < HI, got {lo},{hi}")));
         }
         clip_vertical(&mut figure, lo, hi);

@@ -35,13 +35,17 @@ fn main() {
     }
     let mut rng = Rng::new(seed * 7919);
     let perturb = draw_perturbation(&["friction.k0", "friction.k2", "flow_control.C", "dcv.C"], &mut rng);
-    let mut settings = TruthSettings::default();
-    settings.cycles = Some(cycles);
-    settings.duration = 60.0;
-    let sc = Scenario { hidden, operating_points: standard_operating_points(), perturb: perturb.clone(), truth_only: vec![], settings, seed };
+    let settings = TruthSettings { cycles: Some(cycles), duration: 60.0, ..Default::default() };
+    let sc =
+        Scenario { hidden, operating_points: standard_operating_points(), perturb: perturb.clone(), truth_only: vec![], settings, seed };
     let t0 = std::time::Instant::now();
     let (model, exps) = sc.generate(&base).unwrap();
-    println!("generated in {:.2}s; perturb {:?}; samples {:?}", t0.elapsed().as_secs_f64(), perturb, exps.iter().map(|e| e.times.len()).collect::<Vec<_>>());
+    println!(
+        "generated in {:.2}s; perturb {:?}; samples {:?}",
+        t0.elapsed().as_secs_f64(),
+        perturb,
+        exps.iter().map(|e| e.times.len()).collect::<Vec<_>>()
+    );
     for e in &exps {
         println!("  {} sigma {:?}", e.name, e.channels.iter().map(|c| c.sigma).collect::<Vec<_>>());
     }
@@ -61,6 +65,15 @@ fn main() {
     if let Ok(r) = std::env::var("MAXIT") {
         opts.fit.max_iter = r.parse().unwrap();
     }
+    if let Ok(h) = std::env::var("HORIZONS") {
+        opts.fit.horizons = h.split(',').map(|x| x.parse().unwrap()).collect();
+    }
+    if let Ok(r) = std::env::var("SCREENIT") {
+        opts.screen_iter = r.parse().unwrap();
+    }
+    if std::env::var("NOSCREEN").is_ok() {
+        opts.screen_fraction = None;
+    }
     if std::env::var("BASEONLY").is_ok() {
         opts.effects = Some(vec![]);
     }
@@ -71,13 +84,34 @@ fn main() {
     let t0 = std::time::Instant::now();
     let out = identify::run(&model, &exps, &calib, &opts).unwrap();
     let s = &out.summary;
-    println!("workflow {:.2}s, {} evaluations", t0.elapsed().as_secs_f64(), s.evaluations);
-    println!("baseline chi2/N {:.3} heldout {:.3} rmse {:?} [{} {} ev {}]", s.baseline.chi2 / s.baseline.n as f64, s.baseline.heldout_rmse, s.baseline.rmse_normalized, s.baseline.converged, s.baseline.fit_message, s.baseline.fit_evaluations);
+    println!("workflow {:.2}s, {} evaluations {:?}", t0.elapsed().as_secs_f64(), s.evaluations, s.timing);
+    println!(
+        "baseline chi2/N {:.3} heldout {:.3} rmse {:?} [{} {} ev {}]",
+        s.baseline.chi2 / s.baseline.n as f64,
+        s.baseline.heldout_rmse,
+        s.baseline.rmse_normalized,
+        s.baseline.converged,
+        s.baseline.fit_message,
+        s.baseline.fit_evaluations
+    );
     for p in &s.baseline.params {
         println!("   {} = {:.4e} ({:?})", p.name, p.value, p.ci95);
     }
     for c in &s.candidates {
-        println!("  r{} {:18} dIC {:10.1} chi2/N {:.3} ho {:.3} gap {:.3} ev {} params {:?} acc {} {:?}", c.round, c.effect, c.delta_ic, c.chi2 / s.baseline.n as f64, c.heldout_rmse, c.gap_explained, c.evaluations, c.params, c.accepted, c.reasons);
+        println!(
+            "  r{} {:18} dIC {:10.1} chi2/N {:.3} ho {:.3} gap {:.3} ev {} params {:?} acc {} {:?}",
+            c.round,
+            c.effect,
+            c.delta_ic,
+            c.chi2 / s.baseline.n as f64,
+            c.heldout_rmse,
+            c.gap_explained,
+            c.evaluations,
+            c.params,
+            c.accepted,
+            c.reasons
+        );
+        println!("        {}", c.fit_message);
     }
     println!("verdict: {}", s.verdict);
     println!("after rmse {:?} heldout {:.3}", s.after.rmse_normalized, s.after.heldout_rmse);

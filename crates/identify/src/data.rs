@@ -95,15 +95,29 @@ pub fn parse_csv(text: &str, origin: &str) -> Result<Dataset, DataError> {
         let t = l.trim();
         !t.is_empty() && !t.starts_with('#')
     });
-    let (header_line, header) =
-        lines.next().ok_or_else(|| DataError::File { file: origin.to_string(), message: "is empty (expected a header line with a column \"t\")".into() })?;
+    let (header_line, header) = lines.next().ok_or_else(|| DataError::File {
+        file: origin.to_string(),
+        message: "is empty (expected a header line with a column \"t\")".into(),
+    })?;
     let names: Vec<String> = header.split(',').map(|s| s.trim().trim_matches('"').to_string()).collect();
     for (k, n) in names.iter().enumerate() {
         if n.is_empty() {
-            return Err(DataError::Cell { file: origin.into(), line: header_line, column: k + 1, name: String::new(), message: "empty column name".into() });
+            return Err(DataError::Cell {
+                file: origin.into(),
+                line: header_line,
+                column: k + 1,
+                name: String::new(),
+                message: "empty column name".into(),
+            });
         }
         if names[..k].contains(n) {
-            return Err(DataError::Cell { file: origin.into(), line: header_line, column: k + 1, name: n.clone(), message: "column name used twice".into() });
+            return Err(DataError::Cell {
+                file: origin.into(),
+                line: header_line,
+                column: k + 1,
+                name: n.clone(),
+                message: "column name used twice".into(),
+            });
         }
     }
     let t_col = names.iter().position(|n| n == "t").ok_or_else(|| DataError::Line {
@@ -130,8 +144,20 @@ pub fn parse_csv(text: &str, origin: &str) -> Result<Dataset, DataError> {
             }
             match f.parse::<f64>() {
                 Ok(v) if v.is_finite() => Ok(Some(v)),
-                Ok(v) => Err(DataError::Cell { file: origin.into(), line, column: k + 1, name: names[k].clone(), message: format!("{v} is not a finite number") }),
-                Err(_) => Err(DataError::Cell { file: origin.into(), line, column: k + 1, name: names[k].clone(), message: format!("\"{f}\" is not a number") }),
+                Ok(v) => Err(DataError::Cell {
+                    file: origin.into(),
+                    line,
+                    column: k + 1,
+                    name: names[k].clone(),
+                    message: format!("{v} is not a finite number"),
+                }),
+                Err(_) => Err(DataError::Cell {
+                    file: origin.into(),
+                    line,
+                    column: k + 1,
+                    name: names[k].clone(),
+                    message: format!("\"{f}\" is not a number"),
+                }),
             }
         };
         let t = cell(t_col)?.ok_or_else(|| DataError::Cell {

@@ -186,7 +186,10 @@ pub fn diagnose(traces: &[Trace]) -> Diagnosis {
         }
         total_sq += sqn;
         total_n += n;
-        d.channels.insert(name.clone(), ChannelStats { rmse: (sq / n as f64).sqrt(), rmse_normalized: (sqn / n as f64).sqrt(), bias: sum / n as f64, n });
+        d.channels.insert(
+            name.clone(),
+            ChannelStats { rmse: (sq / n as f64).sqrt(), rmse_normalized: (sqn / n as f64).sqrt(), bias: sum / n as f64, n },
+        );
         for (phase, (s, sn, k)) in by_phase {
             d.phases.push(PhaseStats {
                 phase,

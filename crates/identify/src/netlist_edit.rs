@@ -41,7 +41,8 @@ fn component_mut<'a>(flat: &'a mut FlatNetlist, id: &str) -> Result<&'a mut Comp
 /// Declaration of parameter `param` of component `id`.
 pub fn spec_of(flat: &FlatNetlist, id: &str, param: &str) -> Result<&'static ParamSpec, EditError> {
     let c = component(flat, id).ok_or_else(|| EditError::NoComponent(id.to_string()))?;
-    let ty = blocks::registry::block_type(&c.kind).map_err(|e| EditError::Param { target: format!("{id}.{param}"), message: e.to_string() })?;
+    let ty =
+        blocks::registry::block_type(&c.kind).map_err(|e| EditError::Param { target: format!("{id}.{param}"), message: e.to_string() })?;
     ty.params.iter().find(|s| s.name == param).ok_or_else(|| EditError::Param {
         target: format!("{id}.{param}"),
         message: format!(
@@ -68,10 +69,10 @@ pub fn param_si(flat: &FlatNetlist, id: &str, param: &str) -> Result<f64, EditEr
     let spec = spec_of(flat, id, param)?;
     let c = component(flat, id).ok_or_else(|| EditError::NoComponent(id.to_string()))?;
     match c.params.get(param).or_else(|| c.init.get(param)) {
-        Some(v) => {
-            parse_value(spec, &v.to_raw()).map_err(|e| EditError::Param { target: format!("{id}.{param}"), message: e.to_string() })
+        Some(v) => parse_value(spec, &v.to_raw()).map_err(|e| EditError::Param { target: format!("{id}.{param}"), message: e.to_string() }),
+        None => {
+            spec.default.ok_or_else(|| EditError::Param { target: format!("{id}.{param}"), message: "is required and not given".into() })
         }
-        None => spec.default.ok_or_else(|| EditError::Param { target: format!("{id}.{param}"), message: "is required and not given".into() }),
     }
 }
 
@@ -95,8 +96,7 @@ pub fn set_param_si(flat: &mut FlatNetlist, id: &str, param: &str, value: f64) -
 
 /// Split "id.param" at its last dot.
 pub fn split_target(target: &str) -> Result<(&str, &str), EditError> {
-    graph::netlist::split_ref(target)
-        .ok_or_else(|| EditError::Param { target: target.to_string(), message: "expected ID.PARAM".into() })
+    graph::netlist::split_ref(target).ok_or_else(|| EditError::Param { target: target.to_string(), message: "expected ID.PARAM".into() })
 }
 
 /// An id not used yet, starting from `base` ("seal_leak", "seal_leak_2", ...).
@@ -135,7 +135,15 @@ pub fn node_of(flat: &FlatNetlist, port: &str) -> Vec<String> {
 
 /// The signal output that drives signal input `input` ("dcv.command" → "controller.command").
 pub fn driver_of(flat: &FlatNetlist, input: &str) -> Option<String> {
-    flat.connections.iter().find_map(|(a, b)| if b == input { Some(a.clone()) } else if a == input { Some(b.clone()) } else { None })
+    flat.connections.iter().find_map(|(a, b)| {
+        if b == input {
+            Some(a.clone())
+        } else if a == input {
+            Some(b.clone())
+        } else {
+            None
+        }
+    })
 }
 
 /// Roles of the components of a single-cylinder circuit.

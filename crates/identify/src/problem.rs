@@ -108,7 +108,10 @@ impl Experiment {
                 Some((_, s)) => (*s, false),
                 None => {
                     let s = noise_sigma(&times, &values).ok_or_else(|| {
-                        format!("{}: cannot estimate the noise of \"{}\" (too few samples); give it under \"noise\"", data.origin, data.names[c])
+                        format!(
+                            "{}: cannot estimate the noise of \"{}\" (too few samples); give it under \"noise\"",
+                            data.origin, data.names[c]
+                        )
                     })?;
                     // noise-free data: floor at 1e-6 of the channel's magnitude
                     let scale = values.iter().flatten().fold(0.0_f64, |m, v| m.max(v.abs()));
@@ -248,7 +251,7 @@ pub fn calibration_params(flat: &FlatNetlist, experiments: &[Experiment], specs:
                 None if v > 0.0 => (v / 3.0, v * 3.0),
                 None => return Err(format!("calibrate {}: the value is {v}; give bounds [lo, hi]", spec.target)),
             };
-            if !(lo < hi) || !lo.is_finite() || !hi.is_finite() {
+            if lo >= hi || lo.is_nan() || hi.is_nan() || !lo.is_finite() || !hi.is_finite() {
                 return Err(format!("calibrate {}: bounds [{lo}, {hi}] are not an interval", spec.target));
             }
             let start = v.clamp(lo, hi);
@@ -275,7 +278,11 @@ pub fn calibration_params(flat: &FlatNetlist, experiments: &[Experiment], specs:
                 typical,
                 scale,
                 null: None,
-                target: Target::Netlist { id: id.to_string(), param: param.to_string(), experiments: if single { None } else { Some(members) } },
+                target: Target::Netlist {
+                    id: id.to_string(),
+                    param: param.to_string(),
+                    experiments: if single { None } else { Some(members) },
+                },
             });
         }
     }
@@ -383,7 +390,22 @@ impl<'a> Problem<'a> {
                 s.iter().copied().filter(|&i| e.times[i] <= end).collect()
             })
             .collect();
-        Problem { samples, horizon: fraction, ..self.with_included(self.included())}
+        Problem { samples, horizon: fraction, ..self.with_included(self.included()) }
+    }
+
+    /// The same problem compared only after the first `fraction` of each
+    /// record (simulated over the whole record): the forward held-out part.
+    pub fn tail(&self, fraction: f64) -> Problem<'a> {
+        let samples = self
+            .samples
+            .iter()
+            .zip(self.experiments)
+            .map(|(s, e)| {
+                let start = fraction * e.duration();
+                s.iter().copied().filter(|&i| e.times[i] > start).collect()
+            })
+            .collect();
+        Problem { samples, horizon: 1.0, ..self.with_included(self.included()) }
     }
 
     /// The same problem restricted to some experiments.
@@ -543,8 +565,10 @@ pub struct Fit {
 /// Options of one least-squares fit.
 #[derive(Debug, Clone)]
 pub struct FitOptions {
-    /// Step attempts per stage.
+    /// Step attempts of the full-record stage.
     pub max_iter: usize,
+    /// Step attempts of each short-record stage.
+    pub stage_max_iter: usize,
     pub ftol: f64,
     /// Finite-difference step in fit coordinates.
     pub fd_step: f64,
@@ -560,25 +584,79 @@ pub struct FitOptions {
 
 impl Default for FitOptions {
     fn default() -> Self {
-        FitOptions { max_iter: 30, ftol: 1e-8, fd_step: 1e-3, parallel: true, horizons: vec![0.3, 1.0] }
+        FitOptions { max_iter: 30, stage_max_iter: 30, ftol: 1e-8, fd_step: 1e-3, parallel: true, horizons: vec![0.15, 0.4, 1.0] }
     }
 }
 
 /// Fit with continuation over the record length (see [`FitOptions::horizons`]).
 pub fn fit(problem: &Problem, start: &[f64], opts: &FitOptions) -> Result<Fit, String> {
+    let s = fit_staged(problem, start, opts, None)?;
+    let mut f = s.fit.ok_or("no full-record stage")?;
+    f.evaluations = s.evaluations;
+    Ok(f)
+}
+
+/// Σr² of the problem at SI values.
+pub fn chi2(problem: &Problem, values: &[f64]) -> Result<f64, String> {
+    Ok(problem.residuals(values)?.iter().map(|x| x * x).sum())
+}
+
+/// Outcome of [`fit_staged`].
+#[derive(Debug, Clone)]
+pub struct Staged {
+    /// The full-record fit (`None` when the screen stopped before it).
+    pub fit: Option<Fit>,
+    /// Parameters after the last short-record stage, and that stage's χ² on
+    /// its own records (`None` without short stages).
+    pub values_short: Option<Vec<f64>>,
+    pub chi2_short: Option<f64>,
+    /// Simulations of the problem run (all stages).
+    pub evaluations: usize,
+}
+
+/// Fit with continuation over the record length: each short-record stage
+/// starts from the previous stage's solution, the full-record stage from the
+/// last short one. `screen`, given the last short stage's χ² (on its own
+/// records), decides whether the full-record stage is worth running.
+///
+/// Shape parameters of effects (those without a null value, e.g. a Stribeck
+/// velocity or a line volume) are held at their starting values during the
+/// short-record stages: the first part of a record rarely determines them,
+/// and left free they drift to their bounds.
+pub fn fit_staged(
+    problem: &Problem,
+    start: &[f64],
+    opts: &FitOptions,
+    screen: Option<&(dyn Fn(f64) -> bool + Sync)>,
+) -> Result<Staged, String> {
     let mut values = start.to_vec();
     let mut spent = 0;
-    let horizons: Vec<f64> = opts.horizons.iter().copied().filter(|h| *h > 0.0 && *h < 1.0).chain([1.0]).collect();
-    let mut last = None;
-    for h in horizons {
-        let f = if h < 1.0 { fit_once(&problem.truncated(h), &values, opts)? } else { fit_once(problem, &values, opts)? };
+    let mut chi2_short = None;
+    let mut values_short = None;
+    let short: Vec<f64> = opts.horizons.iter().copied().filter(|h| *h > 0.0 && *h < 1.0).collect();
+    let shape: Vec<bool> = problem.params.iter().map(|p| p.is_effect() && p.null.is_none()).collect();
+    for &h in &short {
+        let mut stage = problem.truncated(h);
+        for (p, (&fixed, &v)) in stage.params.iter_mut().zip(shape.iter().zip(&values)) {
+            if fixed {
+                p.lo = v;
+                p.hi = v;
+            }
+        }
+        let f = fit_once(&stage, &values, &FitOptions { max_iter: opts.stage_max_iter, ..opts.clone() })?;
         spent += f.evaluations;
-        values = f.values.clone();
-        last = Some(f);
+        chi2_short = Some(f.chi2);
+        values = f.values;
+        values_short = Some(values.clone());
     }
-    let mut f = last.ok_or("no fit stage")?;
-    f.evaluations = spent;
-    Ok(f)
+    if let (Some(keep_going), Some(c)) = (screen, chi2_short) {
+        if !keep_going(c) {
+            return Ok(Staged { fit: None, values_short, chi2_short, evaluations: spent });
+        }
+    }
+    let f = fit_once(problem, &values, opts)?;
+    spent += f.evaluations;
+    Ok(Staged { fit: Some(f), values_short, chi2_short, evaluations: spent })
 }
 
 /// One least-squares fit starting from SI values `start`.
@@ -604,7 +682,8 @@ pub fn fit_once(problem: &Problem, start: &[f64], opts: &FitOptions) -> Result<F
             message: "no parameters".into(),
         });
     }
-    let lsq_opts = LsqOptions { max_iter: opts.max_iter, ftol: opts.ftol, xtol: 1e-8, gtol: 1e-8, fd_rel_step: opts.fd_step, parallel: opts.parallel };
+    let lsq_opts =
+        LsqOptions { max_iter: opts.max_iter, ftol: opts.ftol, xtol: 1e-8, gtol: 1e-8, fd_rel_step: opts.fd_step, parallel: opts.parallel };
     let res = least_squares(f, &u0, &Bounds::new(lo, hi), &lsq_opts).map_err(|e| e.to_string())?;
     let values = problem.values_of(&res.x);
     Ok(Fit {
@@ -639,7 +718,8 @@ mod tests {
     #[test]
     fn experiments_map_columns_and_shift_time() {
         let d = dataset(&["p1_Pa", "x_m", "extra"], 50);
-        let map: BTreeMap<String, String> = [("p1_Pa".to_string(), "head.p".to_string()), ("x_m".to_string(), "piston.x".to_string())].into();
+        let map: BTreeMap<String, String> =
+            [("p1_Pa".to_string(), "head.p".to_string()), ("x_m".to_string(), "piston.x".to_string())].into();
         let e = Experiment::from_dataset("a", &d, Some(&map), vec![], None, &[("head.p".into(), 500.0)]).unwrap();
         assert_eq!(e.channels.len(), 2);
         assert_eq!(e.times[0], 0.0);
@@ -658,7 +738,9 @@ mod tests {
     fn calibration_groups_per_distinct_setting() {
         let flat = meter_out();
         let d = dataset(&["head.p"], 20);
-        let mk = |c: &str| Experiment::from_dataset("e", &d, None, vec![format!("flow_control.C={c}"), "supply.p=4 bar".into()], None, &[]).unwrap();
+        let mk = |c: &str| {
+            Experiment::from_dataset("e", &d, None, vec![format!("flow_control.C={c}"), "supply.p=4 bar".into()], None, &[]).unwrap()
+        };
         let exps = vec![mk("13.2 L/min/bar"), mk("26 L/min/bar"), mk("13.2 L/min/bar")];
         let specs = vec![
             CalibSpec { target: "flow_control.C".into(), bounds: None },

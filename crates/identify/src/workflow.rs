@@ -39,7 +39,10 @@ use crate::diagnose::{diagnose, Diagnosis, Trace};
 use crate::effects::{catalogue, Effect, Scale};
 use crate::netlist_edit::{param_si, Topology};
 use crate::phases::{classify, Phase};
-use crate::problem::{calibration_params, effect_params, fit, sample_channels, CalibSpec, Fit, FitOptions, FitParam, Problem, SimSettings, Target};
+use crate::problem::{
+    calibration_params, chi2, effect_params, fit, fit_staged, sample_channels, CalibSpec, Fit, FitOptions, FitParam, Problem, SimSettings,
+    Target,
+};
 use graph::FlatNetlist;
 use nalgebra::{DMatrix, DVector};
 use rayon::prelude::*;
@@ -83,11 +86,17 @@ impl Default for Thresholds {
 /// How held-out errors are computed.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum HeldOut {
-    /// One Gauss–Newton step from the full fit without experiment k:
-    /// δ = −(J₋ₖᵀJ₋ₖ)⁻¹J₋ₖᵀr₋ₖ, prediction r_k + J_k·δ (no extra simulation).
+    /// Forward validation: the parameters fitted on the first part of every
+    /// record (the last short stage of the continuation, see
+    /// [`FitOptions::horizons`]) predict the rest of the records; RMSE of
+    /// the normalised residuals there. One extra simulation per model.
+    Forward,
+    /// Leave one experiment out, by one Gauss–Newton step from the full fit
+    /// without experiment k: δ = −(J₋ₖᵀJ₋ₖ)⁻¹J₋ₖᵀr₋ₖ, prediction r_k + J_k·δ
+    /// (no extra simulation; only as good as the linearisation).
     Linearized,
-    /// Refit without experiment k from the full fit (at most `max_iter` LM
-    /// steps), then simulate experiment k.
+    /// Leave one experiment out, refitting without experiment k from the
+    /// full fit (at most `max_iter` LM steps), then simulating experiment k.
     Refit { max_iter: usize },
 }
 
@@ -106,11 +115,12 @@ pub struct Options {
     pub heldout: HeldOut,
     /// Compute full-resolution traces and diagnostics.
     pub report: bool,
-    /// Step attempts of a candidate's first (screening) fit.
+    /// Step attempts of a candidate's short-record (screening) stage.
     pub screen_iter: usize,
-    /// A candidate is refined beyond the screening fit only if its ΔIC is
-    /// already below −`screen_fraction`·`thresholds.ic`.
-    pub screen_fraction: f64,
+    /// A candidate gets its full-record fit only if its ΔIC after the
+    /// short-record stage is already below −`screen_fraction`·`thresholds.ic`
+    /// (`None`: every candidate gets the full fit).
+    pub screen_fraction: Option<f64>,
 }
 
 impl Default for Options {
@@ -122,10 +132,10 @@ impl Default for Options {
             thresholds: Thresholds::default(),
             max_effects: 2,
             effects: None,
-            heldout: HeldOut::Linearized,
+            heldout: HeldOut::Forward,
             report: true,
-            screen_iter: 6,
-            screen_fraction: 0.5,
+            screen_iter: 12,
+            screen_fraction: Some(0.5),
         }
     }
 }
@@ -188,6 +198,11 @@ pub struct Candidate {
     /// Why it was not accepted (empty when it passed every test).
     pub reasons: Vec<String>,
     pub evaluations: usize,
+    /// How the candidate's least-squares fit ended.
+    pub fit_message: String,
+    /// Stopped after the short-record stage (its ΔIC is then an upper bound
+    /// of what the full fit would give).
+    pub screened_out: bool,
 }
 
 /// An effect added to the model.
@@ -212,7 +227,9 @@ pub struct Summary {
     pub noise: BTreeMap<String, BTreeMap<String, f64>>,
     /// Simulations of all experiments run by the fits.
     pub evaluations: usize,
+    /// Wall time of the whole workflow and of its steps [s].
     pub seconds: f64,
+    pub timing: BTreeMap<String, f64>,
 }
 
 /// Everything the workflow produced.
@@ -235,6 +252,23 @@ struct Structure<'a> {
     params: Vec<FitParam>,
     fit: Fit,
     heldout: f64,
+    /// Best χ² known on the last short-record stage (the screening reference).
+    chi2_short: Option<f64>,
+}
+
+/// The short-record horizon used for screening (the last short stage).
+fn screen_horizon(opts: &Options) -> Option<f64> {
+    opts.fit.horizons.iter().copied().filter(|h| *h > 0.0 && *h < 1.0).fold(None, |m: Option<f64>, h| Some(m.map_or(h, |x| x.max(h))))
+}
+
+/// min(stage χ², χ² of the final values) on the screening horizon.
+fn short_reference(problem: &Problem, staged: Option<f64>, values: &[f64], opts: &Options) -> Option<f64> {
+    let h = screen_horizon(opts)?;
+    let at_final = chi2(&problem.truncated(h), values).ok();
+    match (staged, at_final) {
+        (Some(a), Some(b)) => Some(a.min(b)),
+        (a, b) => a.or(b),
+    }
 }
 
 fn ic(chi2: f64, n: usize, k: usize) -> f64 {
@@ -370,7 +404,8 @@ pub fn run(base: &FlatNetlist, experiments: &[Experiment], calibrate: &[CalibSpe
             }
         }
     }
-    let pool: Vec<&dyn Effect> = all.iter().map(|e| e.as_ref()).filter(|e| opts.effects.as_ref().is_none_or(|v| v.iter().any(|n| n == e.name()))).collect();
+    let pool: Vec<&dyn Effect> =
+        all.iter().map(|e| e.as_ref()).filter(|e| opts.effects.as_ref().is_none_or(|v| v.iter().any(|n| n == e.name()))).collect();
     let calib = calibration_params(base, experiments, calibrate).map_err(IdentifyError::Setup)?;
     let mut evaluations = 0usize;
 
@@ -379,12 +414,16 @@ pub fn run(base: &FlatNetlist, experiments: &[Experiment], calibrate: &[CalibSpe
     // check the channels against the model once, with a clear message
     p0.residuals(&calib.iter().map(|p| p.start).collect::<Vec<_>>()).map_err(IdentifyError::Setup)?;
     let start: Vec<f64> = calib.iter().map(|p| p.start).collect();
-    let f0 = fit(&p0, &start, &opts.fit).map_err(IdentifyError::Baseline)?;
-    evaluations += f0.evaluations;
-    let (h0, e) = heldout(&p0, &f0, opts).map_err(IdentifyError::Baseline)?;
+    let staged0 = fit_staged(&p0, &start, &opts.fit, None).map_err(IdentifyError::Baseline)?;
+    evaluations += staged0.evaluations;
+    let f0 = staged0.fit.ok_or_else(|| IdentifyError::Baseline("no full-record stage".into()))?;
+    let short0 = short_reference(&p0, staged0.chi2_short, &f0.values, opts);
+    let (h0, e) = heldout(&p0, &f0, staged0.values_short.as_deref(), opts).map_err(IdentifyError::Baseline)?;
+    let mut timing = BTreeMap::new();
+    timing.insert("calibration".to_string(), clock.elapsed().as_secs_f64());
     evaluations += e;
     let n_res = f0.residuals.len();
-    let baseline = Structure { effects: vec![], params: calib.clone(), fit: f0, heldout: h0 };
+    let baseline = Structure { effects: vec![], params: calib.clone(), fit: f0, heldout: h0, chi2_short: short0 };
 
     // 3-4. candidates, greedily
     let mut current = baseline.clone();
@@ -396,12 +435,22 @@ pub fn run(base: &FlatNetlist, experiments: &[Experiment], calibrate: &[CalibSpe
         let probe = Problem::new(base, experiments, current.effects.clone(), current.params.clone(), opts.sim, opts.fit_interval)
             .netlist(0, &current.fit.values)
             .map_err(IdentifyError::Setup)?;
-        let tried: Vec<&dyn Effect> =
-            pool.iter().copied().filter(|e| !current.effects.iter().any(|c| c.name() == e.name()) && e.applies_to(&probe)).collect();
+        // after the first round, only effects that improved the previous
+        // round's model somewhat (ΔIC < 0) are tried again (greedy pruning)
+        let helped =
+            |name: &str| round == 1 || candidates.iter().any(|c: &Candidate| c.round == round - 1 && c.effect == name && c.delta_ic < 0.0);
+        let tried: Vec<&dyn Effect> = pool
+            .iter()
+            .copied()
+            .filter(|e| !current.effects.iter().any(|c| c.name() == e.name()) && e.applies_to(&probe) && helped(e.name()))
+            .collect();
         if tried.is_empty() {
             break;
         }
-        let results: Vec<(Option<Structure>, Candidate)> = tried.par_iter().map(|e| try_candidate(base, experiments, &current, *e, round, n_res, opts)).collect();
+        let round_clock = std::time::Instant::now();
+        let results: Vec<(Option<Structure>, Candidate)> =
+            tried.par_iter().map(|e| try_candidate(base, experiments, &current, *e, round, n_res, opts)).collect();
+        timing.insert(format!("round {round}"), round_clock.elapsed().as_secs_f64());
         let mut passing: Vec<(Structure, Candidate)> = Vec::new();
         for (s, c) in results {
             evaluations += c.evaluations;
@@ -432,16 +481,25 @@ pub fn run(base: &FlatNetlist, experiments: &[Experiment], calibrate: &[CalibSpe
         let prefix = if selected.is_empty() {
             String::new()
         } else {
-            format!("missing effect{}: {}; then ", if selected.len() > 1 { "s" } else { "" }, selected.iter().map(|s| s.effect.as_str()).collect::<Vec<_>>().join(", "))
+            format!(
+                "missing effect{}: {}; then ",
+                if selected.len() > 1 { "s" } else { "" },
+                selected.iter().map(|s| s.effect.as_str()).collect::<Vec<_>>().join(", ")
+            )
         };
         format!("{prefix}ambiguous between {} and {}", ambiguous[0], ambiguous[1])
     } else if selected.is_empty() {
         "no missing effect found".to_string()
     } else {
-        format!("missing effect{}: {}", if selected.len() > 1 { "s" } else { "" }, selected.iter().map(|s| s.effect.as_str()).collect::<Vec<_>>().join(", then "))
+        format!(
+            "missing effect{}: {}",
+            if selected.len() > 1 { "s" } else { "" },
+            selected.iter().map(|s| s.effect.as_str()).collect::<Vec<_>>().join(", then ")
+        )
     };
 
     // 5. report
+    let report_clock = std::time::Instant::now();
     let (before, baseline_summary) = summarize(base, experiments, &baseline, n_res, None, opts)?;
     let phases: Vec<Vec<Phase>> = before.iter().map(|t| t.phases.clone()).collect();
     let (after, after_summary) = if selected.is_empty() {
@@ -453,10 +511,8 @@ pub fn run(base: &FlatNetlist, experiments: &[Experiment], calibrate: &[CalibSpe
     for alt in &alternatives {
         augmented.push((label(alt), written_netlist(base, experiments, alt)?));
     }
-    let noise = experiments
-        .iter()
-        .map(|e| (e.name.clone(), e.channels.iter().map(|c| (c.signal.clone(), c.sigma)).collect()))
-        .collect();
+    timing.insert("report".to_string(), report_clock.elapsed().as_secs_f64());
+    let noise = experiments.iter().map(|e| (e.name.clone(), e.channels.iter().map(|c| (c.signal.clone(), c.sigma)).collect())).collect();
     let summary = Summary {
         baseline: baseline_summary,
         candidates,
@@ -468,6 +524,7 @@ pub fn run(base: &FlatNetlist, experiments: &[Experiment], calibrate: &[CalibSpe
         noise,
         evaluations,
         seconds: clock.elapsed().as_secs_f64(),
+        timing,
     };
     Ok(Outcome { summary, baseline_netlist: written_netlist(base, experiments, &baseline)?, augmented, before, after })
 }
@@ -480,10 +537,14 @@ fn label(s: &Structure) -> String {
     }
 }
 
-fn heldout(problem: &Problem, f: &Fit, opts: &Options) -> Result<(f64, usize), String> {
-    match opts.heldout {
-        HeldOut::Linearized => Ok((heldout_linearized(problem, f), 0)),
-        HeldOut::Refit { max_iter } => heldout_refit(problem, f, &opts.fit, max_iter),
+fn heldout(problem: &Problem, f: &Fit, values_short: Option<&[f64]>, opts: &Options) -> Result<(f64, usize), String> {
+    match (opts.heldout, values_short, screen_horizon(opts)) {
+        (HeldOut::Forward, Some(v), Some(h)) => {
+            let r = problem.tail(h).residuals(v)?;
+            Ok(((r.iter().map(|x| x * x).sum::<f64>() / r.len().max(1) as f64).sqrt(), 1))
+        }
+        (HeldOut::Refit { max_iter }, _, _) => heldout_refit(problem, f, &opts.fit, max_iter),
+        _ => Ok((heldout_linearized(problem, f), 0)),
     }
 }
 
@@ -505,20 +566,30 @@ fn try_candidate<'a>(
     let mut start = current.fit.values.clone();
     start.extend(added.iter().map(|p| p.start));
     let problem = Problem::new(base, experiments, effects.clone(), params.clone(), opts.sim, opts.fit_interval);
-    // starting point: the best of the effect's scan grid, calibration held at the current fit
+    // starting point: the best of the effect's scan grid, calibration held at
+    // the current fit, scored on the first part of the records (the last
+    // short stage: long enough to show slow effects, short enough that cycle
+    // timing errors have not accumulated)
     let grid = crate::effects::scan_grid(&effect.params());
     let mut scan_evaluations = 0;
     if !added.is_empty() && grid.len() > 1 {
+        let scan_problem = problem.truncated(screen_horizon(opts).unwrap_or(1.0));
         let scored: Vec<(f64, Vec<f64>)> = grid
             .par_iter()
             .filter_map(|g| {
                 let mut v = current.fit.values.clone();
                 v.extend(g.iter().copied());
-                let r = problem.residuals(&v).ok()?;
-                Some((r.iter().map(|x| x * x).sum::<f64>(), v))
+                Some((chi2(&scan_problem, &v).ok()?, v))
             })
             .collect();
         scan_evaluations = grid.len();
+        if std::env::var("IDENTIFY_DEBUG").is_ok() {
+            let mut sc = scored.clone();
+            sc.sort_by(|a, b| a.0.total_cmp(&b.0));
+            for (c, v) in sc.iter().take(4) {
+                eprintln!("scan {} {:.4e} {:?}", effect.name(), c, &v[v.len() - added.len()..]);
+            }
+        }
         if let Some((_, v)) = scored.into_iter().min_by(|a, b| a.0.total_cmp(&b.0)) {
             start = v;
         }
@@ -535,37 +606,59 @@ fn try_candidate<'a>(
         accepted: false,
         reasons: vec![],
         evaluations: 0,
+        fit_message: String::new(),
+        screened_out: false,
     };
-    // The calibration is already fitted: no continuation over the record
-    // length. A short fit first; only promising candidates are refined.
-    let short = FitOptions { max_iter: opts.screen_iter, horizons: vec![1.0], ..opts.fit.clone() };
-    let full = FitOptions { horizons: vec![1.0], ..opts.fit.clone() };
-    let screened = fit(&problem, &start, &short).and_then(|f| {
-        let d_ic = ic(f.chi2, n_res, params.len()) - ic(current.fit.chi2, n_res, current.params.len());
-        if f.converged || d_ic >= -opts.thresholds.ic * opts.screen_fraction {
-            return Ok(f);
-        }
-        let mut g = fit(&problem, &f.values, &full)?;
-        g.evaluations += f.evaluations;
-        Ok(g)
-    });
-    let f = match screened {
-        Ok(f) => f,
+    // Continuation over the record length as for the baseline; the last,
+    // full-record stage only for candidates that already improve the
+    // information criterion by screen_fraction of the threshold.
+    // The screen compares the candidate and the current model on the first
+    // part of the records, both fitted there: ΔIC_short below
+    // −screen_fraction·ic scaled by the share of samples in that part.
+    let horizon = screen_horizon(opts);
+    let n_short = horizon.map(|h| problem.truncated(h).layout().last().map_or(0, |(_, r)| r.end)).unwrap_or(0);
+    let k = params.len();
+    let k_cur = current.params.len();
+    let screen_at = -opts.thresholds.ic * opts.screen_fraction.unwrap_or(0.0) * n_short as f64 / n_res.max(1) as f64;
+    let reference = current.chi2_short;
+    let keep_going = move |c: f64| match reference {
+        Some(r) if n_short > 0 => ic(c, n_short, k) - ic(r, n_short, k_cur) < screen_at,
+        _ => true,
+    };
+    let screen: Option<&(dyn Fn(f64) -> bool + Sync)> = if opts.screen_fraction.is_some() { Some(&keep_going) } else { None };
+    let fit_opts = FitOptions { stage_max_iter: opts.screen_iter, ..opts.fit.clone() };
+    let staged = match fit_staged(&problem, &start, &fit_opts, screen) {
+        Ok(s) => s,
         Err(e) => {
             cand.reasons.push(format!("fit failed: {e}"));
             cand.evaluations = scan_evaluations;
             return (None, cand);
         }
     };
-    cand.evaluations = f.evaluations + scan_evaluations;
+    cand.evaluations = staged.evaluations + scan_evaluations;
     let th = &opts.thresholds;
     let k_added = added.len();
+    let first = params.len() - k_added;
+    let Some(f) = staged.fit else {
+        // screened out: report the short-record comparison only
+        let d = staged.chi2_short.zip(reference).map(|(c, r)| ic(c, n_short, k) - ic(r, n_short, k_cur)).unwrap_or(f64::NAN);
+        cand.screened_out = true;
+        cand.delta_ic = d;
+        cand.fit_message = "screened out after the short-record stages".into();
+        if let Some(v) = &staged.values_short {
+            for (p, x) in added.iter().zip(&v[first..]) {
+                cand.params.insert(p.name.rsplit('.').next().unwrap_or(&p.name).to_string(), *x);
+            }
+        }
+        cand.reasons.push(format!("screened out: ΔIC = {d:.1} on the first part of the records is not below {screen_at:.1}"));
+        return (None, cand);
+    };
+    cand.fit_message = f.message.clone();
     cand.chi2 = f.chi2;
     cand.delta_ic = ic(f.chi2, n_res, params.len()) - ic(current.fit.chi2, n_res, current.params.len());
     let excess = current.fit.chi2 - n_res as f64;
     cand.gap_explained = if excess > 0.0 { (current.fit.chi2 - f.chi2) / excess } else { 0.0 };
     let est = estimates(&params, &f);
-    let first = params.len() - k_added;
     cand.estimates = est[first..].to_vec();
     for (p, e) in added.iter().zip(&cand.estimates) {
         cand.params.insert(p.name.rsplit('.').next().unwrap_or(&p.name).to_string(), e.value);
@@ -590,8 +683,7 @@ fn try_candidate<'a>(
             cand.reasons.push(format!("parameter within {best_z:.1} standard errors of its null value (needs {})", th.z_null));
         }
     }
-    for i in first..params.len() {
-        let p = &params[i];
+    for (i, p) in params.iter().enumerate().skip(first) {
         let (ulo, uhi) = (p.to_u(p.lo), p.to_u(p.hi));
         let margin = th.bound_margin * (uhi - ulo);
         for (b, ub) in [(p.lo, ulo), (p.hi, uhi)] {
@@ -600,11 +692,12 @@ fn try_candidate<'a>(
             }
         }
     }
-    let (h, e) = if cand.reasons.is_empty() || matches!(opts.heldout, HeldOut::Linearized) {
-        match heldout(&problem, &f, opts) {
+    let refit = matches!(opts.heldout, HeldOut::Refit { .. });
+    let (h, e) = if !refit || cand.reasons.is_empty() {
+        match heldout(&problem, &f, staged.values_short.as_deref(), opts) {
             Ok(x) => x,
             Err(e) => {
-                cand.reasons.push(format!("held-out fit failed: {e}"));
+                cand.reasons.push(format!("held-out prediction failed: {e}"));
                 (f64::NAN, 0)
             }
         }
@@ -617,7 +710,8 @@ fn try_candidate<'a>(
         cand.reasons.push(format!("held-out RMSE {h:.3} not below {:.3} × (1 − {})", current.heldout, th.heldout_gain));
     }
     cand.accepted = cand.reasons.is_empty();
-    let s = Structure { effects, params, fit: f, heldout: h };
+    let chi2_short = short_reference(&problem, staged.chi2_short, &f.values, opts);
+    let s = Structure { effects, params, fit: f, heldout: h, chi2_short };
     (Some(s), cand)
 }
 

@@ -17,7 +17,17 @@ use graph::FlatNetlist;
 pub struct DeadVolume;
 
 fn param(name: &'static str) -> EffectParam {
-    EffectParam { name, unit: "cm3", lo: 0.0, hi: 200e-6, start: 5e-6, typical: 20e-6, null: Some(0.0), scale: Scale::Linear, scan: &[0.0, 10e-6, 40e-6] }
+    EffectParam {
+        name,
+        unit: "cm3",
+        lo: 0.0,
+        hi: 200e-6,
+        start: 5e-6,
+        typical: 20e-6,
+        null: Some(0.0),
+        scale: Scale::Linear,
+        scan: &[0.0, 10e-6, 40e-6],
+    }
 }
 
 impl Effect for DeadVolume {

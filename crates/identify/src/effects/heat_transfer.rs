@@ -32,7 +32,17 @@ impl Effect for HeatTransfer {
         "wall heat exchange with a thermal time constant (Eq. 8) in adiabatic chambers"
     }
     fn params(&self) -> Vec<EffectParam> {
-        vec![EffectParam { name: "rate", unit: "1/s", lo: 0.0, hi: 50.0, start: 0.3, typical: 1.0, null: Some(0.0), scale: Scale::Linear, scan: &[0.1, 0.3, 1.0, 3.0, 10.0] }]
+        vec![EffectParam {
+            name: "rate",
+            unit: "1/s",
+            lo: 0.0,
+            hi: 50.0,
+            start: 0.3,
+            typical: 1.0,
+            null: Some(0.0),
+            scale: Scale::Linear,
+            scan: &[0.1, 0.3, 1.0, 3.0, 10.0],
+        }]
     }
     fn applies_to(&self, flat: &FlatNetlist) -> bool {
         !adiabatic_chambers(flat).is_empty()

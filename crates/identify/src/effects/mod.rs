@@ -74,14 +74,20 @@ pub fn scan_grid(params: &[EffectParam]) -> Vec<Vec<f64>> {
     let mut grid: Vec<Vec<f64>> = vec![vec![]];
     for p in params {
         let values: Vec<f64> = if p.scan.is_empty() { vec![p.start] } else { p.scan.to_vec() };
-        grid = grid.iter().flat_map(|g| values.iter().map(move |v| {
-            let mut h = g.clone();
-            h.push(*v);
-            h
-        })).collect();
+        grid = grid
+            .iter()
+            .flat_map(|g| {
+                values.iter().map(move |v| {
+                    let mut h = g.clone();
+                    h.push(*v);
+                    h
+                })
+            })
+            .collect();
     }
-    // the all-null point is the model without the effect: not a start
-    grid.retain(|g| !params.iter().zip(g).all(|(p, v)| p.null == Some(*v)));
+    // the all-null point is the model without the effect: not a start (an
+    // effect without parameters, such as real_gas, keeps its one empty start)
+    grid.retain(|g| params.is_empty() || !params.iter().zip(g).all(|(p, v)| p.null == Some(*v)));
     grid
 }
 
@@ -207,7 +213,17 @@ pub(crate) mod tests {
 
     #[test]
     fn the_scan_grid_is_the_product_without_the_null_point() {
-        let p = |name, null, scan| EffectParam { name, unit: "", lo: 0.0, hi: 10.0, start: 1.0, typical: 1.0, null, scale: Scale::Linear, scan };
+        let p = |name, null, scan| EffectParam {
+            name,
+            unit: "",
+            lo: 0.0,
+            hi: 10.0,
+            start: 1.0,
+            typical: 1.0,
+            null,
+            scale: Scale::Linear,
+            scan,
+        };
         let g = scan_grid(&[p("a", Some(0.0), &[0.0, 1.0, 2.0]), p("b", Some(0.0), &[0.0, 5.0])]);
         assert_eq!(g, vec![vec![0.0, 5.0], vec![1.0, 0.0], vec![1.0, 5.0], vec![2.0, 0.0], vec![2.0, 5.0]]);
         let g = scan_grid(&[p("a", Some(0.0), &[]), p("b", None, &[3.0, 4.0])]);

@@ -26,8 +26,28 @@ impl Effect for StribeckFriction {
     }
     fn params(&self) -> Vec<EffectParam> {
         vec![
-            EffectParam { name: "breakaway_ratio", unit: "", lo: 1.0, hi: 5.0, start: 1.3, typical: 1.0, null: Some(1.0), scale: Scale::Linear, scan: &[1.3, 2.0, 3.0] },
-            EffectParam { name: "stribeck_velocity", unit: "mm/s", lo: 1e-3, hi: 0.3, start: 0.02, typical: 0.02, null: None, scale: Scale::Log, scan: &[0.005, 0.02, 0.08] },
+            EffectParam {
+                name: "breakaway_ratio",
+                unit: "",
+                lo: 1.0,
+                hi: 5.0,
+                start: 1.3,
+                typical: 1.0,
+                null: Some(1.0),
+                scale: Scale::Linear,
+                scan: &[1.5, 2.0, 3.0, 4.0],
+            },
+            EffectParam {
+                name: "stribeck_velocity",
+                unit: "mm/s",
+                lo: 1e-3,
+                hi: 0.3,
+                start: 0.02,
+                typical: 0.02,
+                null: None,
+                scale: Scale::Log,
+                scan: &[0.005, 0.02, 0.08],
+            },
         ]
     }
     fn applies_to(&self, flat: &FlatNetlist) -> bool {
@@ -41,7 +61,10 @@ impl Effect for StribeckFriction {
         let f = Topology::of(flat).friction.ok_or_else(|| EffectError::new(self.name(), "the circuit has no friction block"))?;
         let (ratio, vs) = (values[0], values[1]);
         if !(1.0..=10.0).contains(&ratio) || vs <= 0.0 {
-            return Err(EffectError::new(self.name(), format!("breakaway_ratio {ratio} must be in [1, 10] and stribeck_velocity {vs} > 0")));
+            return Err(EffectError::new(
+                self.name(),
+                format!("breakaway_ratio {ratio} must be in [1, 10] and stribeck_velocity {vs} > 0"),
+            ));
         }
         if ratio == 1.0 {
             return Ok(());

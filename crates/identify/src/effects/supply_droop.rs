@@ -43,7 +43,17 @@ impl Effect for SupplyDroop {
                 scale: Scale::Log,
                 scan: &[1000.0 * L_MIN_BAR, 300.0 * L_MIN_BAR, 100.0 * L_MIN_BAR, 40.0 * L_MIN_BAR],
             },
-            EffectParam { name: "V_line", unit: "L", lo: 1e-5, hi: 1e-2, start: 3e-4, typical: 3e-4, null: None, scale: Scale::Log, scan: &[5e-5, 5e-4, 3e-3] },
+            EffectParam {
+                name: "V_line",
+                unit: "L",
+                lo: 1e-5,
+                hi: 1e-2,
+                start: 3e-4,
+                typical: 3e-4,
+                null: None,
+                scale: Scale::Log,
+                scan: &[5e-5, 5e-4, 3e-3],
+            },
         ]
     }
     fn applies_to(&self, flat: &FlatNetlist) -> bool {
@@ -51,7 +61,8 @@ impl Effect for SupplyDroop {
     }
     fn apply(&self, flat: &mut FlatNetlist, values: &[f64]) -> Result<(), EffectError> {
         check_len(self, values)?;
-        let supply = Topology::of(flat).supply.ok_or_else(|| EffectError::new(self.name(), "no pressure source feeds the directional valve"))?;
+        let supply =
+            Topology::of(flat).supply.ok_or_else(|| EffectError::new(self.name(), "no pressure source feeds the directional valve"))?;
         let (c, v) = (values[0], values[1]);
         if c <= 0.0 || v <= 0.0 {
             return Err(EffectError::new(self.name(), format!("C_line {c} and V_line {v} must be > 0")));

@@ -25,7 +25,17 @@ impl Effect for ValveDelay {
         "switching delay of the directional valve (dead time after the command)"
     }
     fn params(&self) -> Vec<EffectParam> {
-        vec![EffectParam { name: "T", unit: "ms", lo: 0.0, hi: 0.2, start: 0.005, typical: 0.02, null: Some(0.0), scale: Scale::Linear, scan: &[0.002, 0.005, 0.01, 0.02, 0.05] }]
+        vec![EffectParam {
+            name: "T",
+            unit: "ms",
+            lo: 0.0,
+            hi: 0.2,
+            start: 0.005,
+            typical: 0.02,
+            null: Some(0.0),
+            scale: Scale::Linear,
+            scan: &[0.002, 0.005, 0.01, 0.02, 0.05],
+        }]
     }
     fn applies_to(&self, flat: &FlatNetlist) -> bool {
         Topology::of(flat).command.is_some()
