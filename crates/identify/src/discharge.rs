@@ -515,22 +515,7 @@ mod tests {
 
     const LPMB: f64 = 1e-3 / 60.0 / 1e5; // 1 L/min/bar in m³/(s Pa)
 
-    /// SplitMix64 + Box–Muller: a small seeded normal generator.
-    struct Normal(u64);
-    impl Normal {
-        fn uniform(&mut self) -> f64 {
-            self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-            let mut z = self.0;
-            z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-            z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-            z ^= z >> 31;
-            ((z >> 11) as f64 + 0.5) / (1u64 << 53) as f64
-        }
-        fn sample(&mut self) -> f64 {
-            let (u1, u2) = (self.uniform(), self.uniform());
-            (-2.0 * u1.ln()).sqrt() * (2.0 * std::f64::consts::PI * u2).cos()
-        }
-    }
+    use crate::synth::Rng as Normal;
 
     struct Fs;
     impl graph::Loader for Fs {
@@ -553,9 +538,9 @@ mod tests {
         let mut model = solve::Model::new(circuit);
         let res = solve::simulate(&mut model, &opts).expect("simulate");
         let s = res.series("tank.p").expect("tank.p");
-        let mut rng = Normal(seed);
+        let mut rng = Normal::new(seed);
         let t = s.iter().map(|x| x.0).collect();
-        let p = s.iter().map(|x| x.1 + sigma * rng.sample()).collect();
+        let p = s.iter().map(|x| x.1 + sigma * rng.normal()).collect();
         DischargeData::new(t, p, None).expect("data")
     }
 

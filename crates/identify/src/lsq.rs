@@ -453,22 +453,7 @@ where
 mod tests {
     use super::*;
 
-    /// SplitMix64 + Box–Muller: a small deterministic normal generator.
-    struct Normal(u64);
-    impl Normal {
-        fn uniform(&mut self) -> f64 {
-            self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-            let mut z = self.0;
-            z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-            z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-            z ^= z >> 31;
-            ((z >> 11) as f64 + 0.5) / (1u64 << 53) as f64
-        }
-        fn sample(&mut self) -> f64 {
-            let (u1, u2) = (self.uniform(), self.uniform());
-            (-2.0 * u1.ln()).sqrt() * (2.0 * std::f64::consts::PI * u2).cos()
-        }
-    }
+    use crate::synth::Rng as Normal;
 
     fn opts(parallel: bool) -> LsqOptions {
         LsqOptions { parallel, ..LsqOptions::default() }
@@ -493,9 +478,9 @@ mod tests {
     fn decay_fit(seed: u64) -> (Vec<f64>, Vec<f64>) {
         let truth = [2.0, 0.7, 0.3];
         let sigma = 0.02;
-        let mut rng = Normal(seed);
+        let mut rng = Normal::new(seed);
         let t: Vec<f64> = (0..120).map(|i| i as f64 * 0.03).collect();
-        let y: Vec<f64> = t.iter().map(|&ti| truth[0] * (-ti / truth[1]).exp() + truth[2] + sigma * rng.sample()).collect();
+        let y: Vec<f64> = t.iter().map(|&ti| truth[0] * (-ti / truth[1]).exp() + truth[2] + sigma * rng.normal()).collect();
         let f = |p: &[f64]| Ok(t.iter().zip(&y).map(|(&ti, &yi)| p[0] * (-ti / p[1]).exp() + p[2] - yi).collect());
         let b = Bounds::new(vec![0.0, 1e-3, -10.0], vec![10.0, 10.0, 10.0]);
         let res = least_squares(f, &[1.0, 2.0, 0.0], &b, &opts(true)).expect("fit");
@@ -560,9 +545,9 @@ mod tests {
     #[test]
     fn covariance_matches_linear_regression_formulas() {
         // y = a + b·t with noise; OLS closed forms for estimates and covariance.
-        let mut rng = Normal(7);
+        let mut rng = Normal::new(7);
         let t: Vec<f64> = (0..25).map(|i| 0.4 * i as f64).collect();
-        let y: Vec<f64> = t.iter().map(|v| 1.0 - 0.5 * v + 0.1 * rng.sample()).collect();
+        let y: Vec<f64> = t.iter().map(|v| 1.0 - 0.5 * v + 0.1 * rng.normal()).collect();
         let n = t.len() as f64;
         let tbar = t.iter().sum::<f64>() / n;
         let ybar = y.iter().sum::<f64>() / n;
