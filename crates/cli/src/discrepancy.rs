@@ -1,14 +1,598 @@
-//! `pneumo discrepancy` (placeholder: being written).
+//! `pneumo discrepancy`: where a model disagrees with measurements, which
+//! physical effect it is missing, and the model with that effect added.
+//!
+//! Reads the model netlist and an experiments manifest
+//! ([`identify::manifest`]: data CSV files relative to the manifest, each
+//! with its operating point and column mapping), runs the workflow of
+//! [`identify::workflow`] (calibrate → diagnose → try the catalogue of
+//! candidate effects → select by held-out error, information criterion and
+//! parameter significance → show the gap shrink), and prints the verdict,
+//! or with `--json` the whole summary.
+//!
+//! With `--report DIR` it writes, each file whole or not at all:
+//! - `model_with_<effect>.json` (or `model_with_<A>+<B>.json`): the
+//!   augmented netlist with the fitted values, runnable with
+//!   `pneumo simulate`; one per alternative when the verdict is ambiguous;
+//!   `model_calibrated.json` when nothing is missing;
+//! - `fit_<experiment>.png`: measured vs simulated before and after;
+//! - `residuals_by_phase.png`: normalised RMSE per phase of the cycle;
+//! - `report.md`: the verdict, parameter estimates with 95 % intervals, the
+//!   diagnosis tables and the figures;
+//! - `summary.json`: the `--json` output.
+//!
+//! Figures: PNG drawn with plotters and the bundled DejaVu Sans
+//! (assets/fonts, Bitstream Vera licence). Pressures are shown in bar,
+//! positions in mm, everything else in SI; no physics is computed here.
 
 use crate::error::CliError;
-use std::path::PathBuf;
+use crate::load::flat_netlist;
+use crate::output::write_atomic;
+use identify::diagnose::Trace;
+use identify::phases::Phase;
+use identify::workflow::{Candidate, Estimate, ModelSummary, Outcome};
+use plotters::prelude::{
+    BitMapBackend, ChartBuilder, Color, FontStyle, IntoDrawingArea, IntoLogRange, LineSeries, PathElement, RGBColor, Rectangle,
+    SeriesLabelPosition, BLACK, WHITE,
+};
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+use std::sync::OnceLock;
 
 #[derive(clap::Args, Debug)]
 pub struct DiscrepancyArgs {
-    /// Input file.
+    /// Model netlist (JSON).
     pub input: Option<PathBuf>,
+    /// Experiments manifest (JSON): data files, operating points, column mapping.
+    #[arg(long, value_name = "EXPERIMENTS.json")]
+    pub experiments: Option<PathBuf>,
+    /// Write the augmented netlist, figures and report.md into this directory.
+    #[arg(long, value_name = "DIR")]
+    pub report: Option<PathBuf>,
+    /// Print the summary as JSON.
+    #[arg(long)]
+    pub json: bool,
 }
 
-pub fn run(_a: &DiscrepancyArgs) -> Result<(), CliError> {
-    Err(CliError::Usage("pneumo discrepancy is not available yet".into()))
+pub fn run(a: &DiscrepancyArgs) -> Result<(), CliError> {
+    let model_path = a
+        .input
+        .as_ref()
+        .ok_or_else(|| CliError::Usage("give the model netlist: pneumo discrepancy MODEL.json --experiments EXPERIMENTS.json".into()))?;
+    let manifest_path = a.experiments.as_ref().ok_or_else(|| CliError::Usage("give --experiments EXPERIMENTS.json".into()))?;
+    let flat = flat_netlist(model_path, &[])?;
+    let text = std::fs::read_to_string(manifest_path).map_err(|e| CliError::io(manifest_path, e))?;
+    let manifest = identify::manifest::parse(&text, &manifest_path.display().to_string()).map_err(|e| CliError::Data(e.to_string()))?;
+    let dir = manifest_path.parent().map(Path::to_path_buf).unwrap_or_default();
+    let read = |name: &str| -> Result<(String, String), String> {
+        let path = dir.join(name);
+        std::fs::read_to_string(&path).map(|t| (t, path.display().to_string())).map_err(|e| format!("{}: {e}", path.display()))
+    };
+    let resolved = identify::manifest::resolve(&manifest, &flat, &read).map_err(CliError::Data)?;
+    let outcome =
+        identify::run(&flat, &resolved.experiments, &resolved.calibrate, &resolved.options).map_err(|e| CliError::Data(e.to_string()))?;
+    let json = serde_json::to_string_pretty(&outcome.summary).map_err(|e| CliError::Data(e.to_string()))?;
+    let mut written = Vec::new();
+    if let Some(out) = &a.report {
+        written = write_report(out, model_path, manifest_path, &outcome, &json)?;
+    }
+    if a.json {
+        println!("{json}");
+    } else {
+        print!("{}", text_summary(&outcome));
+        for w in &written {
+            println!("wrote {}", w.display());
+        }
+    }
+    Ok(())
+}
+
+// ---------------------------------------------------------------- text
+
+fn fmt(v: f64) -> String {
+    if !v.is_finite() {
+        return "–".into();
+    }
+    let a = v.abs();
+    if a != 0.0 && !(1e-3..1e6).contains(&a) {
+        format!("{v:.3e}")
+    } else {
+        identify::problem::significant(v, 5)
+    }
+}
+
+/// "12.3 L/min/bar" for an estimate (its own unit when it converts, else SI).
+fn shown(e: &Estimate, v: f64) -> String {
+    match (e.unit.is_empty(), units::to_unit(v, &e.unit)) {
+        (false, Ok(x)) if x.is_finite() => format!("{} {}", fmt(x), e.unit),
+        _ => fmt(v),
+    }
+}
+
+fn estimate_row(e: &Estimate) -> String {
+    let ci = e.ci95.map(|(a, b)| format!("[{}, {}]", shown(e, a), shown(e, b))).unwrap_or_else(|| "–".into());
+    format!("| {} | {} | {} |{}\n", e.name, shown(e, e.value), ci, if e.at_bound { " at a bound" } else { "" })
+}
+
+fn text_summary(o: &Outcome) -> String {
+    let s = &o.summary;
+    let mut t = String::new();
+    let _ = writeln!(t, "verdict: {}", s.verdict);
+    let rm = |m: &ModelSummary| m.rmse_normalized.iter().map(|(k, v)| format!("{k} {v:.2}")).collect::<Vec<_>>().join(", ");
+    let _ = writeln!(t, "baseline: normalised RMSE {} (1 = noise level); held-out {:.3}", rm(&s.baseline), s.baseline.heldout_rmse);
+    for c in &s.candidates {
+        let params = c.params.iter().map(|(k, v)| format!("{k}={}", fmt(*v))).collect::<Vec<_>>().join(" ");
+        let _ = writeln!(
+            t,
+            "  round {} {:<18} ΔIC {:>12} held-out {:>9} {} {}",
+            c.round,
+            c.effect,
+            fmt(c.delta_ic),
+            fmt(c.heldout_rmse),
+            if c.accepted { "passes" } else { "rejected" },
+            params
+        );
+    }
+    if !s.selected.is_empty() {
+        let _ = writeln!(t, "after: normalised RMSE {}; held-out {:.3}", rm(&s.after), s.after.heldout_rmse);
+    }
+    let _ = writeln!(t, "{} simulations in {:.1} s", s.evaluations, s.seconds);
+    t
+}
+
+// ---------------------------------------------------------------- netlists
+
+fn netlist_json(flat: &graph::FlatNetlist, description: String) -> Result<String, CliError> {
+    let n = graph::Netlist {
+        name: Some(flat.name.clone()),
+        description: Some(description),
+        gas: flat.gas.clone(),
+        components: flat.components.clone(),
+        connections: flat.connections.iter().map(|(a, b)| graph::netlist::Connection::Pair([a.clone(), b.clone()])).collect(),
+        simulation: flat.simulation.clone(),
+        interface: None,
+    };
+    serde_json::to_string_pretty(&n).map(|s| s + "\n").map_err(|e| CliError::Data(e.to_string()))
+}
+
+/// File name of an augmented netlist for a structure label ("a+b").
+fn model_file(label: &str) -> String {
+    if label == "baseline" {
+        "model_calibrated.json".into()
+    } else {
+        format!("model_with_{label}.json")
+    }
+}
+
+// ---------------------------------------------------------------- figures
+
+const FONT: &str = "sans-serif";
+static FONT_BYTES: &[u8] = include_bytes!("../../../assets/fonts/DejaVuSans.ttf");
+const MEASURED: RGBColor = RGBColor(150, 150, 150);
+const BEFORE: RGBColor = RGBColor(255, 127, 14);
+const AFTER: RGBColor = RGBColor(31, 119, 180);
+
+fn ensure_font() -> Result<(), CliError> {
+    static OK: OnceLock<bool> = OnceLock::new();
+    if *OK.get_or_init(|| plotters::style::register_font(FONT, FontStyle::Normal, FONT_BYTES).is_ok()) {
+        Ok(())
+    } else {
+        Err(CliError::Data("the bundled font DejaVuSans.ttf could not be read".into()))
+    }
+}
+
+/// Display scale and axis label of a signal.
+fn display(signal: &str) -> (f64, String) {
+    match signal.rsplit('.').next().unwrap_or("") {
+        "p" => (1e-5, format!("{signal} [bar]")),
+        "x" => (1e3, format!("{signal} [mm]")),
+        "T" => (1.0, format!("{signal} [K]")),
+        "v" => (1.0, format!("{signal} [m/s]")),
+        _ => (1.0, signal.to_string()),
+    }
+}
+
+/// A drawn line: label, colour, width, points.
+type Series = (&'static str, RGBColor, u32, Vec<(f64, f64)>);
+
+/// Render with `draw` into `path` through a temporary file in the same directory.
+fn png(path: &Path, draw: impl FnOnce(&Path) -> Result<(), String>) -> Result<(), CliError> {
+    ensure_font()?;
+    let dir = path.parent().unwrap_or(Path::new("."));
+    let name = path.file_name().map(|n| n.to_string_lossy().to_string()).unwrap_or_default();
+    let tmp = dir.join(format!(".{name}.tmp{}.png", std::process::id()));
+    let r = draw(&tmp).map_err(|e| CliError::Data(format!("cannot draw {}: {e}", path.display())));
+    if let Err(e) = r {
+        let _ = std::fs::remove_file(&tmp);
+        return Err(e);
+    }
+    std::fs::rename(&tmp, path).map_err(|e| {
+        let _ = std::fs::remove_file(&tmp);
+        CliError::io(path, e)
+    })
+}
+
+fn range(values: impl Iterator<Item = f64>) -> (f64, f64) {
+    let (lo, hi) = values.filter(|v| v.is_finite()).fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), v| (l.min(v), h.max(v)));
+    if !(lo.is_finite() && hi.is_finite()) {
+        return (0.0, 1.0);
+    }
+    let pad = if hi > lo { 0.05 * (hi - lo) } else { 0.5 * lo.abs().max(1e-9) };
+    (lo - pad, hi + pad)
+}
+
+/// Measured vs simulated before (and after) for one experiment: per channel
+/// a panel of the traces and a panel of the residuals (simulated − measured)
+/// with the ±σ noise band.
+fn fit_figure(path: &Path, before: &Trace, after: Option<&Trace>) -> Result<(), CliError> {
+    let n = before.signals.len().max(1);
+    let size = (1200u32, 60 + 2 * 230 * n as u32);
+    png(path, |file| {
+        let root = BitMapBackend::new(file, size).into_drawing_area();
+        root.fill(&WHITE).map_err(|e| e.to_string())?;
+        let title = format!(
+            "{}: measured (grey), calibrated baseline (orange){}",
+            before.name,
+            if after.is_some() { ", with the missing effect (blue)" } else { "" }
+        );
+        let body = root.titled(&title, (FONT, 22)).map_err(|e| e.to_string())?;
+        let areas = body.split_evenly((2 * n, 1));
+        let (t0, t1) = range(before.times.iter().copied());
+        for c in 0..before.signals.len() {
+            let (scale, label) = display(&before.signals[c]);
+            let pts = |v: &[Option<f64>]| -> Vec<(f64, f64)> {
+                before.times.iter().zip(v).filter_map(|(t, y)| y.map(|y| (*t, y * scale))).collect()
+            };
+            let res = |t: &Trace| -> Vec<(f64, f64)> {
+                (0..t.times.len()).filter_map(|i| t.residual(c, i).map(|r| (t.times[i], r * scale))).collect()
+            };
+            let meas = pts(&before.measured[c]);
+            let sim0 = pts(&before.simulated[c]);
+            let sim1 = after.map(|a| pts(&a.simulated[c]));
+            let res0 = res(before);
+            let res1 = after.map(res);
+            let sigma = before.sigma[c] * scale;
+            // traces
+            let (y0, y1) = range(meas.iter().chain(&sim0).map(|p| p.1));
+            let mut chart = ChartBuilder::on(&areas[2 * c])
+                .margin(8)
+                .x_label_area_size(30)
+                .y_label_area_size(80)
+                .build_cartesian_2d(t0..t1, y0..y1)
+                .map_err(|e| e.to_string())?;
+            chart
+                .configure_mesh()
+                .y_desc(label.as_str())
+                .label_style((FONT, 13))
+                .axis_desc_style((FONT, 14))
+                .light_line_style(RGBColor(235, 235, 235))
+                .draw()
+                .map_err(|e| e.to_string())?;
+            let mut series: Vec<Series> = vec![("measured", MEASURED, 1, meas), ("baseline", BEFORE, 2, sim0)];
+            if let Some(s1) = sim1 {
+                series.push(("with effect", AFTER, 2, s1));
+            }
+            for (name, color, width, data) in series {
+                chart
+                    .draw_series(LineSeries::new(data, color.stroke_width(width)))
+                    .map_err(|e| e.to_string())?
+                    .label(name)
+                    .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], color.stroke_width(2)));
+            }
+            chart
+                .configure_series_labels()
+                .position(SeriesLabelPosition::UpperRight)
+                .background_style(WHITE.mix(0.85))
+                .border_style(BLACK)
+                .label_font((FONT, 13))
+                .draw()
+                .map_err(|e| e.to_string())?;
+            // residuals
+            let (r0, r1) = range(res0.iter().chain(res1.iter().flatten()).map(|p| p.1).chain([-3.0 * sigma, 3.0 * sigma]));
+            let mut chart = ChartBuilder::on(&areas[2 * c + 1])
+                .margin(8)
+                .x_label_area_size(40)
+                .y_label_area_size(80)
+                .build_cartesian_2d(t0..t1, r0..r1)
+                .map_err(|e| e.to_string())?;
+            chart
+                .configure_mesh()
+                .x_desc("t [s]")
+                .y_desc(format!("residual {}", label.split(' ').next_back().unwrap_or("")))
+                .label_style((FONT, 13))
+                .axis_desc_style((FONT, 14))
+                .light_line_style(RGBColor(235, 235, 235))
+                .draw()
+                .map_err(|e| e.to_string())?;
+            chart.draw_series(LineSeries::new(res0, BEFORE.stroke_width(1))).map_err(|e| e.to_string())?;
+            if let Some(r) = res1 {
+                chart.draw_series(LineSeries::new(r, AFTER.stroke_width(1))).map_err(|e| e.to_string())?;
+            }
+            for band in [-sigma, sigma] {
+                chart.draw_series(LineSeries::new(vec![(t0, band), (t1, band)], BLACK.stroke_width(1))).map_err(|e| e.to_string())?;
+            }
+        }
+        root.present().map_err(|e| e.to_string())
+    })
+}
+
+/// Normalised RMSE per phase and channel, before and after (log scale).
+fn phase_figure(path: &Path, before: &ModelSummary, after: Option<&ModelSummary>) -> Result<(), CliError> {
+    let channels: Vec<String> = before.diagnosis.channels.keys().cloned().collect();
+    let n = channels.len().max(1);
+    let size = (1200u32, 60 + 280 * n as u32);
+    let value = |m: &ModelSummary, ch: &str, ph: Phase| {
+        m.diagnosis.phases.iter().find(|p| p.channel == ch && p.phase == ph).map(|p| p.rmse_normalized)
+    };
+    png(path, |file| {
+        let root = BitMapBackend::new(file, size).into_drawing_area();
+        root.fill(&WHITE).map_err(|e| e.to_string())?;
+        let title = format!(
+            "normalised RMSE per phase (1 = noise level): baseline (orange){}",
+            if after.is_some() { ", with the missing effect (blue)" } else { "" }
+        );
+        let body = root.titled(&title, (FONT, 22)).map_err(|e| e.to_string())?;
+        let areas = body.split_evenly((n, 1));
+        for (ch, area) in channels.iter().zip(areas.iter()) {
+            let all: Vec<f64> =
+                Phase::ALL.iter().flat_map(|&ph| [value(before, ch, ph), after.and_then(|a| value(a, ch, ph))]).flatten().collect();
+            let hi = all.iter().copied().fold(2.0_f64, f64::max) * 1.5;
+            let lo = all.iter().copied().filter(|v| *v > 0.0).fold(1.0_f64, f64::min).min(1.0) * 0.5;
+            let mut chart = ChartBuilder::on(area)
+                .margin(8)
+                .x_label_area_size(40)
+                .y_label_area_size(80)
+                .build_cartesian_2d(0.0..Phase::ALL.len() as f64, (lo..hi).log_scale())
+                .map_err(|e| e.to_string())?;
+            chart
+                .configure_mesh()
+                .y_desc(format!("{ch}: RMSE/σ"))
+                .x_labels(Phase::ALL.len() * 2 + 1)
+                .x_label_formatter(&|x| {
+                    let k = x.floor() as usize;
+                    if (x - k as f64 - 0.5).abs() < 0.26 {
+                        Phase::ALL.get(k).map(|p| p.name().to_string()).unwrap_or_default()
+                    } else {
+                        String::new()
+                    }
+                })
+                .label_style((FONT, 14))
+                .axis_desc_style((FONT, 15))
+                .disable_x_mesh()
+                .draw()
+                .map_err(|e| e.to_string())?;
+            for (k, &ph) in Phase::ALL.iter().enumerate() {
+                let x = k as f64;
+                if let Some(v) = value(before, ch, ph) {
+                    chart
+                        .draw_series(std::iter::once(Rectangle::new([(x + 0.15, lo), (x + 0.5, v.max(lo))], BEFORE.filled())))
+                        .map_err(|e| e.to_string())?;
+                }
+                if let Some(v) = after.and_then(|a| value(a, ch, ph)) {
+                    chart
+                        .draw_series(std::iter::once(Rectangle::new([(x + 0.5, lo), (x + 0.85, v.max(lo))], AFTER.filled())))
+                        .map_err(|e| e.to_string())?;
+                }
+            }
+            chart
+                .draw_series(LineSeries::new(vec![(0.0, 1.0), (Phase::ALL.len() as f64, 1.0)], BLACK.stroke_width(1)))
+                .map_err(|e| e.to_string())?;
+        }
+        root.present().map_err(|e| e.to_string())
+    })
+}
+
+// ---------------------------------------------------------------- report
+
+fn safe(name: &str) -> String {
+    name.chars().map(|c| if c.is_ascii_alphanumeric() || c == '-' || c == '_' { c } else { '_' }).collect()
+}
+
+fn model_section(md: &mut String, title: &str, m: &ModelSummary) {
+    let _ = writeln!(md, "### {title}\n");
+    let effects = if m.effects.is_empty() { "none (the model as given)".to_string() } else { m.effects.join(", ") };
+    let _ = writeln!(md, "Effects added: {effects}. Fit: {} ({}).\n", if m.converged { "converged" } else { "stopped" }, m.fit_message);
+    let _ = writeln!(md, "| parameter | estimate | 95 % interval |\n|---|---|---|");
+    for e in &m.params {
+        md.push_str(&estimate_row(e));
+    }
+    let _ = writeln!(md, "\n| channel | RMSE | RMSE / σ | bias | lag-1 autocorrelation | Ljung–Box Q/L |\n|---|---|---|---|---|---|");
+    for (ch, c) in &m.diagnosis.channels {
+        let w = m.diagnosis.whiteness.get(ch);
+        let _ = writeln!(
+            md,
+            "| {ch} | {} | {:.2} | {} | {} | {} |",
+            fmt(c.rmse),
+            c.rmse_normalized,
+            fmt(c.bias),
+            w.map(|w| format!("{:.3}", w.lag1)).unwrap_or_default(),
+            w.map(|w| format!("{:.1}", w.ljung_box_per_lag)).unwrap_or_default()
+        );
+    }
+    let _ = writeln!(md, "\nNormalised RMSE per phase of the cycle (share of Σ(r/σ)² in brackets):\n");
+    let chans: Vec<&String> = m.diagnosis.channels.keys().collect();
+    let _ = writeln!(
+        md,
+        "| phase | {} |\n|---|{}",
+        chans.iter().map(|c| c.as_str()).collect::<Vec<_>>().join(" | "),
+        "---|".repeat(chans.len())
+    );
+    for ph in Phase::ALL {
+        let cells: Vec<String> = chans
+            .iter()
+            .map(|ch| {
+                m.diagnosis
+                    .phases
+                    .iter()
+                    .find(|p| p.phase == ph && &p.channel == *ch)
+                    .map(|p| format!("{:.2} ({:.0} %)", p.rmse_normalized, 100.0 * p.share))
+                    .unwrap_or_else(|| "–".into())
+            })
+            .collect();
+        let _ = writeln!(md, "| {} | {} |", ph.name(), cells.join(" | "));
+    }
+    let _ = writeln!(md, "\nCorrelation of the residuals with candidate regressors:\n");
+    let regs: Vec<String> = m.diagnosis.correlations.values().flat_map(|r| r.keys().cloned()).fold(Vec::new(), |mut v, k| {
+        if !v.contains(&k) {
+            v.push(k);
+        }
+        v
+    });
+    let _ = writeln!(md, "| channel | {} |\n|---|{}", regs.join(" | "), "---|".repeat(regs.len()));
+    for (ch, r) in &m.diagnosis.correlations {
+        let cells: Vec<String> = regs.iter().map(|k| r.get(k).map(|v| format!("{v:+.2}")).unwrap_or_default()).collect();
+        let _ = writeln!(md, "| {ch} | {} |", cells.join(" | "));
+    }
+    md.push('\n');
+}
+
+fn candidate_rows(md: &mut String, cands: &[Candidate]) {
+    let _ = writeln!(md, "| round | effect | ΔIC | held-out RMSE | parameters | verdict |\n|---|---|---|---|---|---|");
+    for c in cands {
+        let params = if c.estimates.is_empty() {
+            c.params.iter().map(|(k, v)| format!("{k} = {}", fmt(*v))).collect::<Vec<_>>().join(", ")
+        } else {
+            c.estimates
+                .iter()
+                .map(|e| {
+                    format!(
+                        "{} = {}{}",
+                        e.name.rsplit('.').next().unwrap_or(&e.name),
+                        shown(e, e.value),
+                        e.std_error.map(|s| format!(" ± {}", shown(e, s).split(' ').next().unwrap_or(""))).unwrap_or_default()
+                    )
+                })
+                .collect::<Vec<_>>()
+                .join(", ")
+        };
+        let verdict = if c.accepted { "passes every test".to_string() } else { c.reasons.join("; ") };
+        let dic = if c.screened_out { format!("{} (first part)", fmt(c.delta_ic)) } else { fmt(c.delta_ic) };
+        let _ = writeln!(md, "| {} | {} | {} | {} | {} | {} |", c.round, c.effect, dic, fmt(c.heldout_rmse), params, verdict);
+    }
+    md.push('\n');
+}
+
+fn write_report(out: &Path, model_path: &Path, manifest_path: &Path, o: &Outcome, json: &str) -> Result<Vec<PathBuf>, CliError> {
+    std::fs::create_dir_all(out).map_err(|e| CliError::io(out, e))?;
+    let s = &o.summary;
+    let mut written = Vec::new();
+    // netlists
+    let mut model_files = Vec::new();
+    for (label, flat) in &o.augmented {
+        let name = model_file(label);
+        let description = format!(
+            "{} with the discrepancy workflow's result: {}. Calibrated values written in; per-setting values are in report.md.",
+            model_path.display(),
+            if label == "baseline" { "no missing effect".to_string() } else { format!("added {label}") }
+        );
+        let path = out.join(&name);
+        write_atomic(&path, netlist_json(flat, description)?.as_bytes())?;
+        written.push(path);
+        model_files.push(name);
+    }
+    // figures
+    let has_after = !s.selected.is_empty();
+    let mut figures = Vec::new();
+    for (k, b) in o.before.iter().enumerate() {
+        let name = format!("fit_{}.png", safe(&b.name));
+        let path = out.join(&name);
+        fit_figure(&path, b, if has_after { o.after.get(k) } else { None })?;
+        written.push(path);
+        figures.push(name);
+    }
+    let phase_name = "residuals_by_phase.png".to_string();
+    let path = out.join(&phase_name);
+    phase_figure(&path, &s.baseline, if has_after { Some(&s.after) } else { None })?;
+    written.push(path);
+    // summary
+    let path = out.join("summary.json");
+    write_atomic(&path, json.as_bytes())?;
+    written.push(path);
+    // report.md
+    let mut md = String::new();
+    let _ = writeln!(md, "# Discrepancy report\n");
+    let _ = writeln!(md, "Model `{}`, experiments `{}`.\n", model_path.display(), manifest_path.display());
+    let _ = writeln!(md, "**Verdict: {}.**\n", s.verdict);
+    if !s.selected.is_empty() {
+        for sel in &s.selected {
+            let params = sel.params.iter().map(|(k, v)| format!("{k} = {}", fmt(*v))).collect::<Vec<_>>().join(", ");
+            let _ = writeln!(md, "- added `{}` ({params}, SI)", sel.effect);
+        }
+        let _ = writeln!(
+            md,
+            "\nAugmented netlist: {} (run it with `pneumo simulate`).\n",
+            model_files.iter().map(|f| format!("`{f}`")).collect::<Vec<_>>().join(", ")
+        );
+    } else if !s.ambiguous.is_empty() {
+        let _ = writeln!(
+            md,
+            "Both alternatives are written: {}.\n",
+            model_files.iter().map(|f| format!("`{f}`")).collect::<Vec<_>>().join(", ")
+        );
+    }
+    let _ = writeln!(md, "## Data\n\n| experiment | channel | noise σ (SI) |\n|---|---|---|");
+    for (e, chans) in &s.noise {
+        for (ch, sigma) in chans {
+            let _ = writeln!(md, "| {e} | {ch} | {} |", fmt(*sigma));
+        }
+    }
+    let _ = writeln!(md, "\n## Before and after\n");
+    for f in &figures {
+        let _ = writeln!(md, "![{f}]({f})\n");
+    }
+    let _ = writeln!(md, "![residuals per phase]({phase_name})\n");
+    let rm = |m: &ModelSummary| m.rmse_normalized.iter().map(|(k, v)| format!("{k} {v:.2}")).collect::<Vec<_>>().join(", ");
+    let _ = writeln!(md, "Normalised RMSE (1 = sensor noise): baseline {}; after {}.", rm(&s.baseline), rm(&s.after));
+    let _ = writeln!(md, "Held-out RMSE: baseline {:.3}, after {:.3}.\n", s.baseline.heldout_rmse, s.after.heldout_rmse);
+    let _ = writeln!(md, "## Models\n");
+    model_section(&mut md, "Calibrated baseline", &s.baseline);
+    if has_after {
+        model_section(&mut md, "With the missing effect", &s.after);
+    }
+    let _ = writeln!(md, "## Candidates\n");
+    let th = &s.thresholds;
+    let _ = writeln!(
+        md,
+        "Accepted when ΔIC < −{} (BIC), the held-out RMSE drops by at least {:.0} %, a parameter lies more than {} standard errors from its null value and none sits at a bound that is not its null. Two passing candidates whose χ² reductions are within {:.0} % of each other are ambiguous.\n",
+        th.ic,
+        100.0 * th.heldout_gain,
+        th.z_null,
+        100.0 * th.ambiguity
+    );
+    candidate_rows(&mut md, &s.candidates);
+    let _ = writeln!(md, "{} simulations of all experiments, {:.1} s.", s.evaluations, s.seconds);
+    let path = out.join("report.md");
+    write_atomic(&path, md.as_bytes())?;
+    written.push(path);
+    Ok(written)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn numbers_and_units_are_shown_shortly() {
+        assert_eq!(fmt(12.5), "12.5");
+        assert_eq!(fmt(3.0), "3");
+        assert_eq!(fmt(-77224.7824), "-77225");
+        assert_eq!(fmt(1.02413), "1.0241");
+        assert_eq!(fmt(2.5e-9), "2.500e-9");
+        assert_eq!(fmt(f64::NAN), "–");
+        let e = Estimate {
+            name: "flow_control.C".into(),
+            value: 13.2e-3 / 60.0 / 1e5,
+            unit: "L/min/bar".into(),
+            shown: None,
+            std_error: None,
+            ci95: None,
+            lo: 0.0,
+            hi: 1.0,
+            at_bound: false,
+        };
+        assert_eq!(shown(&e, e.value), "13.2 L/min/bar");
+        assert_eq!(model_file("piston_seal_leak"), "model_with_piston_seal_leak.json");
+        assert_eq!(model_file("baseline"), "model_calibrated.json");
+        assert_eq!(safe("4 bar, C=2"), "4_bar__C_2");
+        assert_eq!(display("head.p").0, 1e-5);
+    }
 }

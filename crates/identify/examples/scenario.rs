@@ -33,9 +33,12 @@ fn main() {
             identify::netlist_edit::set_param_si(&mut base, id, "tau_thermal", f64::INFINITY).unwrap();
         }
     }
-    let mut rng = Rng::new(seed * 7919);
-    let perturb = draw_perturbation(&["friction.k0", "friction.k2", "flow_control.C", "dcv.C"], &mut rng);
-    let settings = TruthSettings { cycles: Some(cycles), duration: 60.0, ..Default::default() };
+    let mut rng = Rng::new(seed.wrapping_mul(7919).wrapping_add(17));
+    let mut perturb = draw_perturbation(&["friction.k0", "friction.k2", "flow_control.C", "dcv.C"], &mut rng);
+    if std::env::var("NOPERTURB").is_ok() {
+        perturb.clear();
+    }
+    let settings = TruthSettings { cycles: Some(cycles), duration: 60.0, ..TruthSettings::default() };
     let sc =
         Scenario { hidden, operating_points: standard_operating_points(), perturb: perturb.clone(), truth_only: vec![], settings, seed };
     let t0 = std::time::Instant::now();
@@ -70,6 +73,14 @@ fn main() {
     }
     if let Ok(r) = std::env::var("SCREENIT") {
         opts.screen_iter = r.parse().unwrap();
+    }
+    if std::env::var("CALIB").is_ok() {
+        opts.screen_fraction = None;
+        opts.thresholds.ic = -1e12;
+        opts.thresholds.z_null = 0.0;
+        opts.thresholds.bound_margin = 0.0;
+        opts.thresholds.heldout_gain = -1e12;
+        opts.max_effects = 1;
     }
     if std::env::var("NOSCREEN").is_ok() {
         opts.screen_fraction = None;
@@ -114,5 +125,6 @@ fn main() {
         println!("        {}", c.fit_message);
     }
     println!("verdict: {}", s.verdict);
+    println!("baseline heldout {:.4}", s.baseline.heldout_rmse);
     println!("after rmse {:?} heldout {:.3}", s.after.rmse_normalized, s.after.heldout_rmse);
 }

@@ -9,6 +9,7 @@
 //! - [`netlist_edit`]: reading and editing flat netlists (SI values, roles).
 //! - [`effects`]: the catalogue of candidate missing effects.
 //! - [`problem`]: experiments, fitted parameters, noise-weighted residuals.
+//! - [`manifest`]: the experiments manifest of `pneumo discrepancy`.
 //! - [`phases`]: phases of the actuator cycle.
 //! - [`diagnose`]: residual statistics per channel and phase, whiteness,
 //!   correlation with regressors.
@@ -23,6 +24,7 @@ pub mod diagnose;
 pub mod discharge;
 pub mod effects;
 pub mod lsq;
+pub mod manifest;
 pub mod netlist_edit;
 pub mod phases;
 pub mod problem;

@@ -251,7 +251,7 @@ pub fn calibration_params(flat: &FlatNetlist, experiments: &[Experiment], specs:
                 None if v > 0.0 => (v / 3.0, v * 3.0),
                 None => return Err(format!("calibrate {}: the value is {v}; give bounds [lo, hi]", spec.target)),
             };
-            if lo >= hi || lo.is_nan() || hi.is_nan() || !lo.is_finite() || !hi.is_finite() {
+            if lo >= hi || !lo.is_finite() || !hi.is_finite() {
                 return Err(format!("calibrate {}: bounds [{lo}, {hi}] are not an interval", spec.target));
             }
             let start = v.clamp(lo, hi);
@@ -629,6 +629,19 @@ pub fn fit_staged(
     opts: &FitOptions,
     screen: Option<&(dyn Fn(f64) -> bool + Sync)>,
 ) -> Result<Staged, String> {
+    let short = fit_short_stages(problem, start, opts)?;
+    let values = short.values_short.clone().unwrap_or_else(|| start.to_vec());
+    if let (Some(keep_going), Some(c)) = (screen, short.chi2_short) {
+        if !keep_going(c) {
+            return Ok(short);
+        }
+    }
+    let f = fit_once(problem, &values, opts)?;
+    Ok(Staged { evaluations: short.evaluations + f.evaluations, fit: Some(f), ..short })
+}
+
+/// The short-record stages of [`fit_staged`] only (`fit` is `None`).
+pub fn fit_short_stages(problem: &Problem, start: &[f64], opts: &FitOptions) -> Result<Staged, String> {
     let mut values = start.to_vec();
     let mut spent = 0;
     let mut chi2_short = None;
@@ -649,14 +662,7 @@ pub fn fit_staged(
         values = f.values;
         values_short = Some(values.clone());
     }
-    if let (Some(keep_going), Some(c)) = (screen, chi2_short) {
-        if !keep_going(c) {
-            return Ok(Staged { fit: None, values_short, chi2_short, evaluations: spent });
-        }
-    }
-    let f = fit_once(problem, &values, opts)?;
-    spent += f.evaluations;
-    Ok(Staged { fit: Some(f), values_short, chi2_short, evaluations: spent })
+    Ok(Staged { fit: None, values_short, chi2_short, evaluations: spent })
 }
 
 /// One least-squares fit starting from SI values `start`.

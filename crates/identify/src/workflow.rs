@@ -5,31 +5,40 @@
 //! # Steps
 //! 1. **Calibrate**: bounded Levenberg–Marquardt ([`crate::lsq`]) on the
 //!    noise-weighted output error over all experiments ([`crate::problem`]),
-//!    from the netlist's values.
+//!    from the netlist's values, with continuation over the record length
+//!    (first 15 %, then 40 %, then all of every record; see
+//!    [`FitOptions::horizons`]).
 //! 2. **Diagnose** ([`crate::diagnose`]): per channel and per phase of the
 //!    cycle, whiteness, correlation with candidate regressors.
-//! 3. **Try candidates**: each applicable effect is added to the current
-//!    model and its parameters are fitted together with the calibration
-//!    parameters (warm start; candidates run in parallel with rayon).
+//! 3. **Try candidates** (in parallel, rayon). For each applicable effect:
+//!    (a) scan a small grid of its parameters with the calibration held at
+//!    the current fit, on the first 40 % of the records; (b) from the best
+//!    grid point(s) fit calibration and effect parameters together on the
+//!    15 % and 40 % records (shape parameters held); (c) *screen*: only
+//!    candidates whose ΔIC on the 40 % records beats −`screen_fraction`·ic
+//!    (scaled by the share of samples) and reaches `screen_relative` of the
+//!    best candidate's go on to (d) the fit on the full records.
 //! 4. **Select**: a candidate passes when all hold:
 //!    - information criterion: ΔIC = N·ln(χ²_e/χ²_0) + Δk·ln N < −`ic`
 //!      (Schwarz's BIC for Gaussian errors of unknown common scale; χ² is
 //!      the sum of squared noise-normalised residuals over the N fitted
 //!      samples, Δk the number of added parameters);
-//!    - held-out error: the leave-one-experiment-out normalised RMSE drops
-//!      by at least the fraction `heldout_gain` (each experiment predicted by
-//!      the parameters fitted without it; by default the Gauss–Newton
-//!      linearisation of that refit around the full fit, see [`HeldOut`]);
 //!    - its parameters: at least one parameter that has a null value lies
-//!      more than `z_null` standard errors from it, and no effect parameter
-//!      sits within `bound_margin` (fraction of its fitted range) of a bound
-//!      other than its null.
+//!      more than `z_null` linearised standard errors from it, and no effect
+//!      parameter sits within `bound_margin` (fraction of its fitted range)
+//!      of a bound other than its null;
+//!    - held-out error: the leave-one-experiment-out normalised RMSE (each
+//!      experiment predicted by the parameters refitted without it; median
+//!      over experiments, see [`HeldOut`]) drops by at least the fraction
+//!      `heldout_gain` below the current model's (computed only for
+//!      candidates passing the rest).
 //!
 //!    Among passing candidates the lowest ΔIC wins, unless the runner-up
 //!    explains at least (1 − `ambiguity`) of the winner's χ² reduction:
 //!    then the verdict is "ambiguous between A and B" and nothing more is
 //!    added. The search repeats greedily from the augmented model (at most
-//!    `max_effects` effects).
+//!    `max_effects` effects; a later round retries only effects that
+//!    lowered the IC in the previous one).
 //! 5. **Show**: before/after traces and statistics at full data resolution.
 //!
 //! The default thresholds were calibrated on synthetic data with nothing
@@ -40,8 +49,8 @@ use crate::effects::{catalogue, Effect, Scale};
 use crate::netlist_edit::{param_si, Topology};
 use crate::phases::{classify, Phase};
 use crate::problem::{
-    calibration_params, chi2, effect_params, fit, fit_staged, sample_channels, CalibSpec, Fit, FitOptions, FitParam, Problem, SimSettings,
-    Target,
+    calibration_params, chi2, effect_params, fit, fit_once, fit_short_stages, fit_staged, sample_channels, CalibSpec, Fit, FitOptions,
+    FitParam, Problem, SimSettings, Staged, Target,
 };
 use graph::FlatNetlist;
 use nalgebra::{DMatrix, DVector};
@@ -79,7 +88,7 @@ pub struct Thresholds {
 
 impl Default for Thresholds {
     fn default() -> Self {
-        Thresholds { ic: 200.0, heldout_gain: 0.01, z_null: 4.0, bound_margin: 0.005, ambiguity: 0.1 }
+        Thresholds { ic: 100.0, heldout_gain: 0.05, z_null: 4.0, bound_margin: 0.005, ambiguity: 0.1 }
     }
 }
 
@@ -96,7 +105,8 @@ pub enum HeldOut {
     /// (no extra simulation; only as good as the linearisation).
     Linearized,
     /// Leave one experiment out, refitting without experiment k from the
-    /// full fit (at most `max_iter` LM steps), then simulating experiment k.
+    /// full fit (at most `max_iter` LM steps), then simulating experiment k;
+    /// the median over experiments of their normalised RMSE.
     Refit { max_iter: usize },
 }
 
@@ -115,8 +125,13 @@ pub struct Options {
     pub heldout: HeldOut,
     /// Compute full-resolution traces and diagnostics.
     pub report: bool,
-    /// Step attempts of a candidate's short-record (screening) stage.
+    /// Step attempts of a candidate's short-record (screening) stages.
     pub screen_iter: usize,
+    /// Starting points tried for effects with shape parameters (best of the scan grid).
+    pub starts: usize,
+    /// A candidate gets its full-record fit only if its short-record ΔIC is
+    /// at least this fraction of the best candidate's (both negative).
+    pub screen_relative: f64,
     /// A candidate gets its full-record fit only if its ΔIC after the
     /// short-record stage is already below −`screen_fraction`·`thresholds.ic`
     /// (`None`: every candidate gets the full fit).
@@ -132,10 +147,12 @@ impl Default for Options {
             thresholds: Thresholds::default(),
             max_effects: 2,
             effects: None,
-            heldout: HeldOut::Forward,
+            heldout: HeldOut::Refit { max_iter: 6 },
             report: true,
-            screen_iter: 12,
-            screen_fraction: Some(0.5),
+            screen_iter: 8,
+            starts: 2,
+            screen_relative: 0.5,
+            screen_fraction: Some(1.0),
         }
     }
 }
@@ -254,6 +271,19 @@ struct Structure<'a> {
     heldout: f64,
     /// Best χ² known on the last short-record stage (the screening reference).
     chi2_short: Option<f64>,
+    /// Parameters after the short-record stages (forward held-out prediction).
+    values_short: Option<Vec<f64>>,
+}
+
+/// Compute a structure's held-out RMSE if not done yet; returns simulations spent.
+fn ensure_heldout(base: &FlatNetlist, experiments: &[Experiment], s: &mut Structure, opts: &Options) -> Result<usize, String> {
+    if s.heldout.is_finite() {
+        return Ok(0);
+    }
+    let problem = Problem::new(base, experiments, s.effects.clone(), s.params.clone(), opts.sim, opts.fit_interval);
+    let (h, e) = heldout(&problem, &s.fit, s.values_short.as_deref(), opts)?;
+    s.heldout = h;
+    Ok(e)
 }
 
 /// The short-record horizon used for screening (the last short stage).
@@ -370,22 +400,64 @@ fn heldout_refit(problem: &Problem, f: &Fit, opts: &FitOptions, max_iter: usize)
         .par_iter()
         .map(|&k| {
             let mut p = problem.with_included(all.iter().copied().filter(|&j| j != k).collect());
-            let o = FitOptions { max_iter, ..opts.clone() };
+            let o = FitOptions { max_iter, horizons: vec![1.0], ..opts.clone() };
             let g = if p.params.is_empty() { None } else { Some(fit(&p, &f.values, &o)?) };
             let values = g.as_ref().map(|g| g.values.clone()).unwrap_or_default();
             p.included = Some(vec![k]);
             let rk = p.residuals(&values)?;
+            if std::env::var("IDENTIFY_DEBUG").is_ok() {
+                let own: f64 = f.values.iter().zip(&values).map(|(a, b)| ((a - b) / a.abs().max(1e-30)).abs()).fold(0.0, f64::max);
+                eprintln!(
+                    "fold {k}: rmse {:.3} max rel param change {own:.3e} values {:?} msg {:?}",
+                    (rk.iter().map(|x| x * x).sum::<f64>() / rk.len() as f64).sqrt(),
+                    values,
+                    g.as_ref().map(|g| g.message.clone())
+                );
+            }
             Ok((rk.iter().map(|x| x * x).sum::<f64>(), rk.len(), g.map(|g| g.evaluations).unwrap_or(0)))
         })
         .collect();
-    let (mut sq, mut n, mut ev) = (0.0, 0, 0);
+    // the median over folds of each held-out experiment's normalised RMSE:
+    // one fold whose simulation goes astray (e.g. a stall near the
+    // breakaway limit) does not decide the comparison alone
+    let mut per_fold = Vec::new();
+    let mut ev = 0;
     for fold in folds {
         let (s, k, e) = fold?;
-        sq += s;
-        n += k;
+        per_fold.push((s / k.max(1) as f64).sqrt());
         ev += e;
     }
-    Ok(((sq / n.max(1) as f64).sqrt(), ev))
+    Ok((crate::data::median(&mut per_fold).unwrap_or(f64::NAN), ev))
+}
+
+/// What a round concludes from the candidates that passed every test.
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum Decision {
+    None,
+    /// Add the candidate with this index.
+    Select(usize),
+    /// The best two explain the gap equally.
+    Ambiguous(usize, usize),
+}
+
+/// Pick among passing candidates given as (ΔIC, χ²): the lowest ΔIC wins
+/// unless the runner-up's χ² reduction is within `ambiguity` (a fraction) of
+/// the winner's.
+fn decide(passing: &[(f64, f64)], chi2_current: f64, ambiguity: f64) -> Decision {
+    let mut order: Vec<usize> = (0..passing.len()).collect();
+    order.sort_by(|&a, &b| passing[a].0.total_cmp(&passing[b].0));
+    match order.as_slice() {
+        [] => Decision::None,
+        [a] => Decision::Select(*a),
+        [a, b, ..] => {
+            let gain = |i: usize| chi2_current - passing[i].1;
+            if gain(*b) >= (1.0 - ambiguity) * gain(*a) {
+                Decision::Ambiguous(*a, *b)
+            } else {
+                Decision::Select(*a)
+            }
+        }
+    }
 }
 
 /// Run the workflow on `base` (the model as given) and the experiments.
@@ -418,12 +490,18 @@ pub fn run(base: &FlatNetlist, experiments: &[Experiment], calibrate: &[CalibSpe
     evaluations += staged0.evaluations;
     let f0 = staged0.fit.ok_or_else(|| IdentifyError::Baseline("no full-record stage".into()))?;
     let short0 = short_reference(&p0, staged0.chi2_short, &f0.values, opts);
-    let (h0, e) = heldout(&p0, &f0, staged0.values_short.as_deref(), opts).map_err(IdentifyError::Baseline)?;
     let mut timing = BTreeMap::new();
     timing.insert("calibration".to_string(), clock.elapsed().as_secs_f64());
-    evaluations += e;
     let n_res = f0.residuals.len();
-    let baseline = Structure { effects: vec![], params: calib.clone(), fit: f0, heldout: h0, chi2_short: short0 };
+    // held-out errors are computed only when a candidate needs the comparison
+    let mut baseline = Structure {
+        effects: vec![],
+        params: calib.clone(),
+        fit: f0,
+        heldout: f64::NAN,
+        chi2_short: short0,
+        values_short: staged0.values_short,
+    };
 
     // 3-4. candidates, greedily
     let mut current = baseline.clone();
@@ -448,9 +526,60 @@ pub fn run(base: &FlatNetlist, experiments: &[Experiment], calibrate: &[CalibSpe
             break;
         }
         let round_clock = std::time::Instant::now();
-        let results: Vec<(Option<Structure>, Candidate)> =
-            tried.par_iter().map(|e| try_candidate(base, experiments, &current, *e, round, n_res, opts)).collect();
+        // phase A for every candidate, then phase B for those that pass the
+        // screen: an absolute improvement on the first part of the records,
+        // and at least `screen_relative` of the best candidate's improvement
+        let preps: Vec<Prepared> = tried.par_iter().map(|e| prepare(base, experiments, &current, *e, round, n_res, opts)).collect();
+        let best_short = preps.iter().map(|p| p.short_dic).filter(|d| d.is_finite()).fold(f64::INFINITY, f64::min);
+        let results: Vec<(Option<Structure>, Candidate)> = preps
+            .into_par_iter()
+            .map(|p| {
+                if p.short.is_none() {
+                    return (None, p.cand);
+                }
+                if opts.screen_fraction.is_some() {
+                    if p.short_dic.is_nan() || p.short_dic >= p.screen_at {
+                        let why = format!(
+                            "screened out: ΔIC = {:.1} on the first part of the records is not below {:.1}",
+                            p.short_dic, p.screen_at
+                        );
+                        return (None, screened(p, why));
+                    }
+                    if best_short < 0.0 && p.short_dic > opts.screen_relative * best_short {
+                        let why = format!(
+                            "screened out: ΔIC = {:.1} on the first part of the records is less than {} of the best candidate's {:.1}",
+                            p.short_dic, opts.screen_relative, best_short
+                        );
+                        return (None, screened(p, why));
+                    }
+                }
+                finish(&current, p, n_res, opts)
+            })
+            .collect();
         timing.insert(format!("round {round}"), round_clock.elapsed().as_secs_f64());
+        // held-out test for the candidates that passed everything else
+        let mut results = results;
+        if results.iter().any(|(s, c)| s.is_some() && c.accepted) {
+            let e = ensure_heldout(base, experiments, &mut current, opts).map_err(IdentifyError::Baseline)?;
+            evaluations += e;
+            if current.effects.is_empty() {
+                baseline.heldout = current.heldout;
+            }
+            let reference = current.heldout;
+            results.par_iter_mut().for_each(|(s, c)| {
+                let Some(s) = s.as_mut().filter(|_| c.accepted) else { return };
+                match ensure_heldout(base, experiments, s, opts) {
+                    Ok(e) => c.evaluations += e,
+                    Err(e) => c.reasons.push(format!("held-out prediction failed: {e}")),
+                }
+                c.heldout_rmse = s.heldout;
+                let gain = opts.thresholds.heldout_gain;
+                if s.heldout.is_nan() || s.heldout > reference * (1.0 - gain) {
+                    c.reasons.push(format!("held-out RMSE {:.3} not below {reference:.3} × (1 − {gain})", s.heldout));
+                }
+                c.accepted = c.reasons.is_empty();
+            });
+        }
         let mut passing: Vec<(Structure, Candidate)> = Vec::new();
         for (s, c) in results {
             evaluations += c.evaluations;
@@ -463,14 +592,11 @@ pub fn run(base: &FlatNetlist, experiments: &[Experiment], calibrate: &[CalibSpe
             break;
         }
         passing.sort_by(|a, b| a.1.delta_ic.total_cmp(&b.1.delta_ic));
-        if passing.len() >= 2 {
-            let gain = |c: &Candidate| current.fit.chi2 - c.chi2;
-            let (a, b) = (&passing[0].1, &passing[1].1);
-            if gain(b) >= (1.0 - opts.thresholds.ambiguity) * gain(a) {
-                ambiguous = vec![a.effect.clone(), b.effect.clone()];
-                alternatives = vec![passing[0].0.clone(), passing[1].0.clone()];
-                break;
-            }
+        let scores: Vec<(f64, f64)> = passing.iter().map(|(_, c)| (c.delta_ic, c.chi2)).collect();
+        if let Decision::Ambiguous(a, b) = decide(&scores, current.fit.chi2, opts.thresholds.ambiguity) {
+            ambiguous = vec![passing[a].1.effect.clone(), passing[b].1.effect.clone()];
+            alternatives = vec![passing[a].0.clone(), passing[b].0.clone()];
+            break;
         }
         let (s, c) = passing.swap_remove(0);
         selected.push(Selected { effect: c.effect.clone(), params: c.params.clone() });
@@ -548,7 +674,24 @@ fn heldout(problem: &Problem, f: &Fit, values_short: Option<&[f64]>, opts: &Opti
     }
 }
 
-fn try_candidate<'a>(
+/// A candidate after the scan and the short-record stages (phase A).
+struct Prepared<'a> {
+    effects: Vec<&'a dyn Effect>,
+    params: Vec<FitParam>,
+    added: Vec<FitParam>,
+    problem: Problem<'a>,
+    /// The best short-record result over the starting points.
+    short: Option<Staged>,
+    /// ΔIC against the current model on the first part of the records.
+    short_dic: f64,
+    /// The screening threshold on `short_dic`.
+    screen_at: f64,
+    cand: Candidate,
+}
+
+/// Phase A: scan the effect's grid for starting points and run the
+/// short-record stages of the fit from the best of them.
+fn prepare<'a>(
     base: &'a FlatNetlist,
     experiments: &'a [Experiment],
     current: &Structure<'a>,
@@ -556,7 +699,7 @@ fn try_candidate<'a>(
     round: usize,
     n_res: usize,
     opts: &Options,
-) -> (Option<Structure<'a>>, Candidate) {
+) -> Prepared<'a> {
     let slot = current.effects.len();
     let mut effects = current.effects.clone();
     effects.push(effect);
@@ -566,34 +709,6 @@ fn try_candidate<'a>(
     let mut start = current.fit.values.clone();
     start.extend(added.iter().map(|p| p.start));
     let problem = Problem::new(base, experiments, effects.clone(), params.clone(), opts.sim, opts.fit_interval);
-    // starting point: the best of the effect's scan grid, calibration held at
-    // the current fit, scored on the first part of the records (the last
-    // short stage: long enough to show slow effects, short enough that cycle
-    // timing errors have not accumulated)
-    let grid = crate::effects::scan_grid(&effect.params());
-    let mut scan_evaluations = 0;
-    if !added.is_empty() && grid.len() > 1 {
-        let scan_problem = problem.truncated(screen_horizon(opts).unwrap_or(1.0));
-        let scored: Vec<(f64, Vec<f64>)> = grid
-            .par_iter()
-            .filter_map(|g| {
-                let mut v = current.fit.values.clone();
-                v.extend(g.iter().copied());
-                Some((chi2(&scan_problem, &v).ok()?, v))
-            })
-            .collect();
-        scan_evaluations = grid.len();
-        if std::env::var("IDENTIFY_DEBUG").is_ok() {
-            let mut sc = scored.clone();
-            sc.sort_by(|a, b| a.0.total_cmp(&b.0));
-            for (c, v) in sc.iter().take(4) {
-                eprintln!("scan {} {:.4e} {:?}", effect.name(), c, &v[v.len() - added.len()..]);
-            }
-        }
-        if let Some((_, v)) = scored.into_iter().min_by(|a, b| a.0.total_cmp(&b.0)) {
-            start = v;
-        }
-    }
     let mut cand = Candidate {
         round,
         effect: effect.name().to_string(),
@@ -609,50 +724,87 @@ fn try_candidate<'a>(
         fit_message: String::new(),
         screened_out: false,
     };
-    // Continuation over the record length as for the baseline; the last,
-    // full-record stage only for candidates that already improve the
-    // information criterion by screen_fraction of the threshold.
-    // The screen compares the candidate and the current model on the first
-    // part of the records, both fitted there: ΔIC_short below
-    // −screen_fraction·ic scaled by the share of samples in that part.
-    let horizon = screen_horizon(opts);
-    let n_short = horizon.map(|h| problem.truncated(h).layout().last().map_or(0, |(_, r)| r.end)).unwrap_or(0);
-    let k = params.len();
-    let k_cur = current.params.len();
-    let screen_at = -opts.thresholds.ic * opts.screen_fraction.unwrap_or(0.0) * n_short as f64 / n_res.max(1) as f64;
-    let reference = current.chi2_short;
-    let keep_going = move |c: f64| match reference {
-        Some(r) if n_short > 0 => ic(c, n_short, k) - ic(r, n_short, k_cur) < screen_at,
-        _ => true,
-    };
-    let screen: Option<&(dyn Fn(f64) -> bool + Sync)> = if opts.screen_fraction.is_some() { Some(&keep_going) } else { None };
+    // starting points: the best of the effect's scan grid, calibration held at
+    // the current fit, scored on the first part of the records (the last
+    // short stage: long enough to show slow effects, short enough that cycle
+    // timing errors have not accumulated)
+    let grid = crate::effects::scan_grid(&effect.params());
+    let mut starts = vec![start];
+    if !added.is_empty() && grid.len() > 1 {
+        let scan_problem = problem.truncated(screen_horizon(opts).unwrap_or(1.0));
+        let mut scored: Vec<(f64, Vec<f64>)> = grid
+            .par_iter()
+            .filter_map(|g| {
+                let mut v = current.fit.values.clone();
+                v.extend(g.iter().copied());
+                Some((chi2(&scan_problem, &v).ok()?, v))
+            })
+            .collect();
+        cand.evaluations += grid.len();
+        scored.sort_by(|a, b| a.0.total_cmp(&b.0));
+        // effects with shape parameters (held during the short stages) start
+        // from the best few grid points; the best after the short stages goes on
+        let n_starts = if added.iter().any(|p| p.null.is_none()) { opts.starts.max(1) } else { 1 };
+        let picked: Vec<Vec<f64>> = scored.into_iter().take(n_starts).map(|(_, v)| v).collect();
+        if !picked.is_empty() {
+            starts = picked;
+        }
+    }
     let fit_opts = FitOptions { stage_max_iter: opts.screen_iter, ..opts.fit.clone() };
-    let staged = match fit_staged(&problem, &start, &fit_opts, screen) {
-        Ok(s) => s,
+    let shorts: Vec<Result<Staged, String>> = starts.par_iter().map(|st| fit_short_stages(&problem, st, &fit_opts)).collect();
+    cand.evaluations += shorts.iter().map(|r| r.as_ref().map_or(0, |s| s.evaluations)).sum::<usize>();
+    let mut errors: Vec<String> = shorts.iter().filter_map(|r| r.as_ref().err().cloned()).collect();
+    let short = shorts.into_iter().filter_map(|r| r.ok()).min_by(|a, b| {
+        let key = |s: &Staged| s.chi2_short.unwrap_or(f64::INFINITY);
+        key(a).total_cmp(&key(b))
+    });
+    if short.is_none() {
+        errors.dedup();
+        cand.reasons.push(format!("fit failed: {}", errors.join("; ")));
+    }
+    // The screen compares the candidate and the current model on the first
+    // part of the records, both fitted there.
+    let n_short = screen_horizon(opts).map(|h| problem.truncated(h).layout().last().map_or(0, |(_, r)| r.end)).unwrap_or(0);
+    let short_dic = match (short.as_ref().and_then(|s| s.chi2_short), current.chi2_short) {
+        (Some(c), Some(r)) if n_short > 0 => ic(c, n_short, params.len()) - ic(r, n_short, current.params.len()),
+        _ => f64::NAN,
+    };
+    let screen_at = -opts.thresholds.ic * opts.screen_fraction.unwrap_or(0.0) * n_short as f64 / n_res.max(1) as f64;
+    if let Some(v) = short.as_ref().and_then(|s| s.values_short.as_ref()) {
+        let first = params.len() - added.len();
+        for (p, x) in added.iter().zip(&v[first..]) {
+            cand.params.insert(p.name.rsplit('.').next().unwrap_or(&p.name).to_string(), *x);
+        }
+    }
+    Prepared { effects, params, added, problem, short, short_dic, screen_at, cand }
+}
+
+/// A candidate stopped after phase A.
+fn screened(mut p: Prepared, why: String) -> Candidate {
+    p.cand.screened_out = true;
+    p.cand.delta_ic = p.short_dic;
+    p.cand.fit_message = "screened out after the short-record stages".into();
+    p.cand.reasons.push(why);
+    p.cand
+}
+
+/// Phase B: the full-record fit and the acceptance tests.
+fn finish<'a>(current: &Structure<'a>, prep: Prepared<'a>, n_res: usize, opts: &Options) -> (Option<Structure<'a>>, Candidate) {
+    let Prepared { effects, params, added, problem, short, mut cand, .. } = prep;
+    let Some(short) = short else { return (None, cand) };
+    let fit_opts = FitOptions { stage_max_iter: opts.screen_iter, ..opts.fit.clone() };
+    let from =
+        short.values_short.clone().unwrap_or_else(|| current.fit.values.iter().copied().chain(added.iter().map(|p| p.start)).collect());
+    let f = match fit_once(&problem, &from, &fit_opts) {
+        Ok(f) => f,
         Err(e) => {
             cand.reasons.push(format!("fit failed: {e}"));
-            cand.evaluations = scan_evaluations;
             return (None, cand);
         }
     };
-    cand.evaluations = staged.evaluations + scan_evaluations;
+    cand.evaluations += f.evaluations;
     let th = &opts.thresholds;
-    let k_added = added.len();
-    let first = params.len() - k_added;
-    let Some(f) = staged.fit else {
-        // screened out: report the short-record comparison only
-        let d = staged.chi2_short.zip(reference).map(|(c, r)| ic(c, n_short, k) - ic(r, n_short, k_cur)).unwrap_or(f64::NAN);
-        cand.screened_out = true;
-        cand.delta_ic = d;
-        cand.fit_message = "screened out after the short-record stages".into();
-        if let Some(v) = &staged.values_short {
-            for (p, x) in added.iter().zip(&v[first..]) {
-                cand.params.insert(p.name.rsplit('.').next().unwrap_or(&p.name).to_string(), *x);
-            }
-        }
-        cand.reasons.push(format!("screened out: ΔIC = {d:.1} on the first part of the records is not below {screen_at:.1}"));
-        return (None, cand);
-    };
+    let first = params.len() - added.len();
     cand.fit_message = f.message.clone();
     cand.chi2 = f.chi2;
     cand.delta_ic = ic(f.chi2, n_res, params.len()) - ic(current.fit.chi2, n_res, current.params.len());
@@ -660,6 +812,7 @@ fn try_candidate<'a>(
     cand.gap_explained = if excess > 0.0 { (current.fit.chi2 - f.chi2) / excess } else { 0.0 };
     let est = estimates(&params, &f);
     cand.estimates = est[first..].to_vec();
+    cand.params.clear();
     for (p, e) in added.iter().zip(&cand.estimates) {
         cand.params.insert(p.name.rsplit('.').next().unwrap_or(&p.name).to_string(), e.value);
     }
@@ -692,26 +845,9 @@ fn try_candidate<'a>(
             }
         }
     }
-    let refit = matches!(opts.heldout, HeldOut::Refit { .. });
-    let (h, e) = if !refit || cand.reasons.is_empty() {
-        match heldout(&problem, &f, staged.values_short.as_deref(), opts) {
-            Ok(x) => x,
-            Err(e) => {
-                cand.reasons.push(format!("held-out prediction failed: {e}"));
-                (f64::NAN, 0)
-            }
-        }
-    } else {
-        (f64::NAN, 0)
-    };
-    cand.evaluations += e;
-    cand.heldout_rmse = h;
-    if h.is_finite() && h > current.heldout * (1.0 - th.heldout_gain) {
-        cand.reasons.push(format!("held-out RMSE {h:.3} not below {:.3} × (1 − {})", current.heldout, th.heldout_gain));
-    }
     cand.accepted = cand.reasons.is_empty();
-    let chi2_short = short_reference(&problem, staged.chi2_short, &f.values, opts);
-    let s = Structure { effects, params, fit: f, heldout: h, chi2_short };
+    let chi2_short = short_reference(&problem, short.chi2_short, &f.values, opts);
+    let s = Structure { effects, params, fit: f, heldout: f64::NAN, chi2_short, values_short: short.values_short };
     (Some(s), cand)
 }
 
@@ -871,6 +1007,19 @@ mod tests {
         assert!((v - (1000.0 * 2f64.ln() + 3.0 * 1000f64.ln())).abs() < 1e-9);
         // an added parameter that does not reduce χ² costs ln N
         assert!((ic(1000.0, 1000, 4) - ic(1000.0, 1000, 3) - 1000f64.ln()).abs() < 1e-9);
+    }
+
+    #[test]
+    fn the_best_wins_unless_the_runner_up_explains_as_much() {
+        // current χ² 10 000; candidates (ΔIC, χ²)
+        assert_eq!(decide(&[], 1e4, 0.1), Decision::None);
+        assert_eq!(decide(&[(-500.0, 9000.0)], 1e4, 0.1), Decision::Select(0));
+        // gains 8000 and 2000: clear winner (index 1 has the lower ΔIC)
+        assert_eq!(decide(&[(-900.0, 8000.0), (-9000.0, 2000.0)], 1e4, 0.1), Decision::Select(1));
+        // gains 8000 and 7500: within 10 % → ambiguous, best first
+        assert_eq!(decide(&[(-8000.0, 2500.0), (-8500.0, 2000.0)], 1e4, 0.1), Decision::Ambiguous(1, 0));
+        // the same pair with a 5 % ambiguity margin is decided
+        assert_eq!(decide(&[(-8000.0, 2500.0), (-8500.0, 2000.0)], 1e4, 0.05), Decision::Select(1));
     }
 
     #[test]

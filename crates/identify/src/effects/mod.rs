@@ -85,9 +85,8 @@ pub fn scan_grid(params: &[EffectParam]) -> Vec<Vec<f64>> {
             })
             .collect();
     }
-    // the all-null point is the model without the effect: not a start (an
-    // effect without parameters, such as real_gas, keeps its one empty start)
-    grid.retain(|g| params.is_empty() || !params.iter().zip(g).all(|(p, v)| p.null == Some(*v)));
+    // the all-null point is the model without the effect: not a start
+    grid.retain(|g| !params.iter().zip(g).all(|(p, v)| p.null == Some(*v)));
     grid
 }
 
@@ -228,7 +227,8 @@ pub(crate) mod tests {
         assert_eq!(g, vec![vec![0.0, 5.0], vec![1.0, 0.0], vec![1.0, 5.0], vec![2.0, 0.0], vec![2.0, 5.0]]);
         let g = scan_grid(&[p("a", Some(0.0), &[]), p("b", None, &[3.0, 4.0])]);
         assert_eq!(g, vec![vec![1.0, 3.0], vec![1.0, 4.0]]);
-        assert_eq!(scan_grid(&[]), vec![Vec::<f64>::new()]);
+        // no parameters: nothing to scan
+        assert!(scan_grid(&[]).is_empty());
     }
 
     #[test]

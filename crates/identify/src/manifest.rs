@@ -1,0 +1,273 @@
+//! The experiments manifest of `pneumo discrepancy`: which data files, at
+//! which operating point, which columns are which model signals, and what
+//! to calibrate.
+//!
+//! ```json
+//! {
+//!   "experiments": [
+//!     { "data": "run1.csv", "set": { "supply.p": "4 bar", "flow_control.C": "13.2 L/min/bar" },
+//!       "columns": { "p1_Pa": "head.p", "p2_Pa": "rod.p", "x_m": "piston.x" },
+//!       "time_origin": "12.5 s", "name": "4 bar, switch 2" }
+//!   ],
+//!   "calibrate": { "friction.k0": ["1 N", "60 N"], "flow_control.C": ["5 L/min/bar", "60 L/min/bar"] },
+//!   "noise": { "head.p": "5 mbar" },
+//!   "effects": ["piston_seal_leak", "valve_delay"],
+//!   "max_effects": 2,
+//!   "fit_interval": "4 ms"
+//! }
+//! ```
+//!
+//! - `data`: CSV file, relative to the manifest ([`crate::data`]).
+//! - `set`: the experiment's operating point, "id.param" → value (number in
+//!   SI or text with a unit), applied like `--set`.
+//! - `columns`: data column → model signal; omit it when the CSV already
+//!   uses signal names (then every column but `t` is a signal).
+//! - `time_origin`: data time of simulation time 0 (default: first sample).
+//! - `calibrate`: parameters to fit with [lo, hi] bounds (default: see
+//!   [`crate::problem::default_calibration`]).
+//! - `noise`: sensor noise σ per signal (default: estimated from the data).
+//! - `effects`, `max_effects`, `fit_interval`: restrict the catalogue, the
+//!   number of effects added (default 2), the spacing of fitted samples.
+//!
+//! Unknown keys are errors; errors name the file, line and column.
+
+use graph::netlist::Value;
+use serde::Deserialize;
+use std::collections::BTreeMap;
+
+/// The manifest file.
+#[derive(Debug, Clone, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Manifest {
+    /// Free text.
+    #[serde(default)]
+    pub description: Option<String>,
+    pub experiments: Vec<ExperimentSpec>,
+    #[serde(default)]
+    pub calibrate: Option<BTreeMap<String, (Value, Value)>>,
+    #[serde(default)]
+    pub noise: BTreeMap<String, Value>,
+    #[serde(default)]
+    pub effects: Option<Vec<String>>,
+    #[serde(default)]
+    pub max_effects: Option<usize>,
+    #[serde(default)]
+    pub fit_interval: Option<Value>,
+}
+
+/// One experiment of the manifest.
+#[derive(Debug, Clone, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ExperimentSpec {
+    pub data: String,
+    #[serde(default)]
+    pub name: Option<String>,
+    #[serde(default)]
+    pub set: BTreeMap<String, Value>,
+    #[serde(default)]
+    pub columns: Option<BTreeMap<String, String>>,
+    #[serde(default)]
+    pub time_origin: Option<Value>,
+}
+
+/// Why a manifest could not be read.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum ManifestError {
+    #[error("{file}:{line}:{column}: {message}")]
+    Json { file: String, line: usize, column: usize, message: String },
+    #[error("{file}: {message}")]
+    Invalid { file: String, message: String },
+}
+
+/// Parse manifest text; `origin` names the file in errors.
+pub fn parse(text: &str, origin: &str) -> Result<Manifest, ManifestError> {
+    let m: Manifest = serde_json::from_str(text).map_err(|e| ManifestError::Json {
+        file: origin.to_string(),
+        line: e.line(),
+        column: e.column(),
+        message: e.to_string().split(" at line ").next().unwrap_or_default().to_string(),
+    })?;
+    if m.experiments.is_empty() {
+        return Err(ManifestError::Invalid { file: origin.into(), message: "\"experiments\" is empty".into() });
+    }
+    Ok(m)
+}
+
+/// "id.param=value" text of one `set` entry (numbers are SI).
+pub fn set_text(target: &str, value: &Value) -> Result<String, String> {
+    match value {
+        Value::Number(x) => Ok(format!("{target}={x}")),
+        Value::Text(s) => Ok(format!("{target}={s}")),
+        Value::List(_) => Err(format!("set \"{target}\": expected a single value, got a list")),
+    }
+}
+
+/// SI seconds of a time value ("12.5 s", 12.5).
+pub fn seconds(value: &Value, what: &str) -> Result<f64, String> {
+    match value {
+        Value::Number(x) if x.is_finite() => Ok(*x),
+        Value::Text(s) => units::parse_quantity(s, units::dim::TIME).map_err(|e| format!("{what} = \"{s}\": {e}")),
+        _ => Err(format!("{what}: expected a time")),
+    }
+}
+
+/// Units of the model's recorded signals ("head.p" → "Pa").
+pub fn signal_units(flat: &graph::FlatNetlist) -> Result<BTreeMap<String, String>, String> {
+    let circuit = graph::build(flat).map_err(|e| e.to_string())?;
+    let model = solve::Model::new(circuit);
+    Ok(model.output_names().into_iter().zip(model.output_units()).collect())
+}
+
+/// Reads a data file named in a manifest: (text, name for messages).
+pub type ReadData<'a> = dyn Fn(&str) -> Result<(String, String), String> + 'a;
+
+/// Everything the workflow needs from a manifest.
+#[derive(Debug, Clone)]
+pub struct Resolved {
+    pub experiments: Vec<crate::problem::Experiment>,
+    pub calibrate: Vec<crate::problem::CalibSpec>,
+    pub options: crate::workflow::Options,
+}
+
+/// Turn a manifest into experiments, calibration targets and options.
+/// `read(path)` returns the text of a data file named in the manifest
+/// (paths as written, for the caller to resolve against the manifest).
+pub fn resolve(m: &Manifest, flat: &graph::FlatNetlist, read: &ReadData) -> Result<Resolved, String> {
+    let units = signal_units(flat)?;
+    let mut noise = Vec::new();
+    for (signal, v) in &m.noise {
+        let unit = units.get(signal).ok_or_else(|| format!("noise: \"{signal}\" is not a signal of the model"))?;
+        let dim = units::parse_unit(unit).map(|u| u.dimension).unwrap_or(units::dim::DIMENSIONLESS);
+        let sigma = match v {
+            Value::Number(x) => *x,
+            Value::Text(t) => units::parse_quantity(t, dim).map_err(|e| format!("noise \"{signal}\" = \"{t}\": {e}"))?,
+            Value::List(_) => return Err(format!("noise \"{signal}\": expected a single value")),
+        };
+        noise.push((signal.clone(), sigma));
+    }
+    let mut experiments = Vec::new();
+    for (k, spec) in m.experiments.iter().enumerate() {
+        let (text, origin) = read(&spec.data)?;
+        let data = crate::data::parse_csv(&text, &origin).map_err(|e| e.to_string())?;
+        let sets = spec.set.iter().map(|(t, v)| set_text(t, v)).collect::<Result<Vec<_>, _>>()?;
+        let t0 = spec.time_origin.as_ref().map(|v| seconds(v, "time_origin")).transpose()?;
+        let name = spec.name.clone().unwrap_or_else(|| format!("exp{}", k + 1));
+        let e = crate::problem::Experiment::from_dataset(&name, &data, spec.columns.as_ref(), sets, t0, &noise)?;
+        for c in &e.channels {
+            if !units.contains_key(&c.signal) {
+                return Err(format!(
+                    "{}: \"{}\" is not a signal of the model (signals: {})",
+                    origin,
+                    c.signal,
+                    units.keys().cloned().collect::<Vec<_>>().join(", ")
+                ));
+            }
+        }
+        experiments.push(e);
+    }
+    let calibrate = match &m.calibrate {
+        None => crate::problem::default_calibration(flat),
+        Some(map) => map
+            .iter()
+            .map(|(target, (lo, hi))| {
+                let (id, param) = crate::netlist_edit::split_target(target).map_err(|e| e.to_string())?;
+                let lo = crate::netlist_edit::parse_for(flat, id, param, lo).map_err(|e| format!("calibrate: {e}"))?;
+                let hi = crate::netlist_edit::parse_for(flat, id, param, hi).map_err(|e| format!("calibrate: {e}"))?;
+                if lo.partial_cmp(&hi) != Some(std::cmp::Ordering::Less) {
+                    return Err(format!("calibrate \"{target}\": lower bound {lo} is not below upper bound {hi}"));
+                }
+                Ok(crate::problem::CalibSpec { target: target.clone(), bounds: Some((lo, hi)) })
+            })
+            .collect::<Result<Vec<_>, String>>()?,
+    };
+    let mut options = crate::workflow::Options::default();
+    if let Some(names) = &m.effects {
+        options.effects = Some(names.clone());
+    }
+    if let Some(n) = m.max_effects {
+        options.max_effects = n;
+    }
+    if let Some(v) = &m.fit_interval {
+        let dt = seconds(v, "fit_interval")?;
+        if dt.is_nan() || dt <= 0.0 {
+            return Err(format!("fit_interval must be > 0 s, got {dt}"));
+        }
+        options.fit_interval = dt;
+    }
+    Ok(Resolved { experiments, calibrate, options })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn reads_the_documented_example() {
+        let text = r#"{
+          "experiments": [
+            { "data": "run1.csv", "set": { "supply.p": "4 bar", "flow_control.C": 2.2e-9 },
+              "columns": { "p1_Pa": "head.p" }, "time_origin": "12.5 s" },
+            { "data": "run2.csv" }
+          ],
+          "calibrate": { "friction.k0": ["1 N", "60 N"] },
+          "noise": { "head.p": "5 mbar" },
+          "max_effects": 1
+        }"#;
+        let m = parse(text, "m.json").unwrap();
+        assert_eq!(m.experiments.len(), 2);
+        assert_eq!(set_text("supply.p", &m.experiments[0].set["supply.p"]).unwrap(), "supply.p=4 bar");
+        assert_eq!(set_text("flow_control.C", &m.experiments[0].set["flow_control.C"]).unwrap(), "flow_control.C=0.0000000022");
+        assert_eq!(seconds(m.experiments[0].time_origin.as_ref().unwrap(), "t0").unwrap(), 12.5);
+        let (lo, hi) = &m.calibrate.as_ref().unwrap()["friction.k0"];
+        assert_eq!((lo, hi), (&Value::Text("1 N".into()), &Value::Text("60 N".into())));
+        assert!(m.experiments[1].columns.is_none());
+        assert_eq!(m.max_effects, Some(1));
+    }
+
+    #[test]
+    fn errors_name_file_line_and_column() {
+        let e = parse("{\n  \"experiments\": [ { \"dat\": \"a.csv\" } ]\n}", "m.json").unwrap_err().to_string();
+        assert!(e.starts_with("m.json:2:") && e.contains("dat"), "{e}");
+        let e = parse("{\"experiments\": []}", "m.json").unwrap_err().to_string();
+        assert!(e.contains("empty"), "{e}");
+        let e =
+            parse("{\"experiments\": [{\"data\": \"a\"}], \"calibrate\": {\"friction.k0\": [\"1 N\"]}}", "m.json").unwrap_err().to_string();
+        assert!(e.starts_with("m.json:1:"), "{e}");
+        assert!(set_text("a.b", &Value::List(vec![])).is_err());
+        assert!(seconds(&Value::Text("3 bar".into()), "t0").is_err());
+    }
+
+    #[test]
+    fn resolves_columns_noise_bounds_and_sets() {
+        let flat = crate::netlist_edit::tests_support::meter_out();
+        let text = r#"{ "experiments": [ { "data": "a.csv", "set": { "supply.p": "5 bar" }, "columns": { "p1": "head.p" }, "time_origin": 1.0 } ],
+                        "calibrate": { "friction.k0": ["1 N", "60 N"] }, "noise": { "head.p": "5 mbar" }, "effects": ["valve_delay"] }"#;
+        let m = parse(text, "m.json").unwrap();
+        let csv: String = std::iter::once("t,p1,other\n".to_string())
+            .chain((0..50).map(|i| format!("{},{},{}\n", 1.0 + i as f64 * 1e-3, 1e5 + i as f64, i)))
+            .collect();
+        let read = |p: &str| -> Result<(String, String), String> {
+            if p == "a.csv" {
+                Ok((csv.clone(), "dir/a.csv".into()))
+            } else {
+                Err(format!("no {p}"))
+            }
+        };
+        let r = resolve(&m, &flat, &read).unwrap();
+        let e = &r.experiments[0];
+        assert_eq!(e.sets, vec!["supply.p=5 bar".to_string()]);
+        assert_eq!(e.channels.len(), 1);
+        assert!((e.channels[0].sigma - 500.0).abs() < 1e-9 && !e.channels[0].sigma_estimated);
+        assert_eq!(e.times[0], 0.0);
+        assert_eq!(r.calibrate[0].bounds, Some((1.0, 60.0)));
+        assert_eq!(r.options.effects, Some(vec!["valve_delay".to_string()]));
+        // a column mapped to something that is not a signal
+        let bad = parse(r#"{ "experiments": [ { "data": "a.csv", "columns": { "p1": "head.pressure" } } ] }"#, "m.json").unwrap();
+        let err = resolve(&bad, &flat, &read).unwrap_err();
+        assert!(err.contains("head.pressure") && err.contains("head.p"), "{err}");
+        let bad = parse(r#"{ "experiments": [ { "data": "b.csv" } ] }"#, "m.json").unwrap();
+        assert!(resolve(&bad, &flat, &read).unwrap_err().contains("no b.csv"));
+        let bad = parse(r#"{ "experiments": [ { "data": "a.csv" } ], "calibrate": { "friction.k0": ["9 N", "2 N"] } }"#, "m.json").unwrap();
+        assert!(resolve(&bad, &flat, &read).unwrap_err().contains("not below"));
+    }
+}
