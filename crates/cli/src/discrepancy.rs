@@ -108,6 +108,26 @@ fn shown(e: &Estimate, v: f64) -> String {
     }
 }
 
+/// An effect parameter value in the unit its effect declares ("0.3 L/min/bar").
+fn effect_value(effect: &str, param: &str, v: f64) -> String {
+    let unit = identify::effects::by_name(effect).and_then(|e| e.params().into_iter().find(|p| p.name == param)).map(|p| p.unit);
+    match unit.map(|u| (u, units::to_unit(v, u))) {
+        Some((u, Ok(x))) if !u.is_empty() && x.is_finite() => format!("{} {u}", fmt(x)),
+        _ => fmt(v),
+    }
+}
+
+/// A noise level in the unit a person reads it in: mbar, µm, K, m/s.
+fn noise_text(signal: &str, sigma: f64) -> String {
+    match signal.rsplit('.').next().unwrap_or("") {
+        "p" => format!("{} mbar", fmt(sigma * 1e-2)),
+        "x" => format!("{} µm", fmt(sigma * 1e6)),
+        "T" => format!("{} K", fmt(sigma)),
+        "v" => format!("{} mm/s", fmt(sigma * 1e3)),
+        _ => fmt(sigma),
+    }
+}
+
 fn estimate_row(e: &Estimate) -> String {
     let ci = e.ci95.map(|(a, b)| format!("[{}, {}]", shown(e, a), shown(e, b))).unwrap_or_else(|| "–".into());
     format!("| {} | {} | {} |{}\n", e.name, shown(e, e.value), ci, if e.at_bound { " at a bound" } else { "" })
@@ -120,7 +140,7 @@ fn text_summary(o: &Outcome) -> String {
     let rm = |m: &ModelSummary| m.rmse_normalized.iter().map(|(k, v)| format!("{k} {v:.2}")).collect::<Vec<_>>().join(", ");
     let _ = writeln!(t, "baseline: normalised RMSE {} (1 = noise level); held-out {:.3}", rm(&s.baseline), s.baseline.heldout_rmse);
     for c in &s.candidates {
-        let params = c.params.iter().map(|(k, v)| format!("{k}={}", fmt(*v))).collect::<Vec<_>>().join(" ");
+        let params = c.params.iter().map(|(k, v)| format!("{k} = {}", effect_value(&c.effect, k, *v))).collect::<Vec<_>>().join(", ");
         let _ = writeln!(
             t,
             "  round {} {:<18} ΔIC {:>12} held-out {:>9} {} {}",
@@ -449,7 +469,7 @@ fn candidate_rows(md: &mut String, cands: &[Candidate]) {
     let _ = writeln!(md, "| round | effect | ΔIC | held-out RMSE | parameters | verdict |\n|---|---|---|---|---|---|");
     for c in cands {
         let params = if c.estimates.is_empty() {
-            c.params.iter().map(|(k, v)| format!("{k} = {}", fmt(*v))).collect::<Vec<_>>().join(", ")
+            c.params.iter().map(|(k, v)| format!("{k} = {}", effect_value(&c.effect, k, *v))).collect::<Vec<_>>().join(", ")
         } else {
             c.estimates
                 .iter()
@@ -514,8 +534,18 @@ fn write_report(out: &Path, model_path: &Path, manifest_path: &Path, o: &Outcome
     let _ = writeln!(md, "**Verdict: {}.**\n", s.verdict);
     if !s.selected.is_empty() {
         for sel in &s.selected {
-            let params = sel.params.iter().map(|(k, v)| format!("{k} = {}", fmt(*v))).collect::<Vec<_>>().join(", ");
-            let _ = writeln!(md, "- added `{}` ({params}, SI)", sel.effect);
+            let params = sel
+                .params
+                .iter()
+                .map(|(k, v)| {
+                    let full = format!("{}.{k}", sel.effect);
+                    let ci = s.after.params.iter().find(|e| e.name == full).and_then(|e| e.ci95.map(|(a, b)| (e, a, b)));
+                    let ci = ci.map(|(e, a, b)| format!(", 95 % interval [{}, {}]", shown(e, a), shown(e, b))).unwrap_or_default();
+                    format!("{k} = {}{ci}", effect_value(&sel.effect, k, *v))
+                })
+                .collect::<Vec<_>>()
+                .join("; ");
+            let _ = writeln!(md, "- added `{}`: {params}", sel.effect);
         }
         let _ = writeln!(
             md,
@@ -529,10 +559,10 @@ fn write_report(out: &Path, model_path: &Path, manifest_path: &Path, o: &Outcome
             model_files.iter().map(|f| format!("`{f}`")).collect::<Vec<_>>().join(", ")
         );
     }
-    let _ = writeln!(md, "## Data\n\n| experiment | channel | noise σ (SI) |\n|---|---|---|");
+    let _ = writeln!(md, "## Data\n\n| experiment | channel | noise σ |\n|---|---|---|");
     for (e, chans) in &s.noise {
         for (ch, sigma) in chans {
-            let _ = writeln!(md, "| {e} | {ch} | {} |", fmt(*sigma));
+            let _ = writeln!(md, "| {e} | {ch} | {} |", noise_text(ch, *sigma));
         }
     }
     let _ = writeln!(md, "\n## Before and after\n");
@@ -594,5 +624,9 @@ mod tests {
         assert_eq!(model_file("baseline"), "model_calibrated.json");
         assert_eq!(safe("4 bar, C=2"), "4_bar__C_2");
         assert_eq!(display("head.p").0, 1e-5);
+        assert_eq!(effect_value("piston_seal_leak", "C", 0.3e-3 / 60.0 / 1e5), "0.3 L/min/bar");
+        assert_eq!(effect_value("no_such_effect", "C", 2.5), "2.5");
+        assert_eq!(noise_text("head.p", 500.0), "5 mbar");
+        assert_eq!(noise_text("piston.x", 2e-5), "20 µm");
     }
 }
