@@ -23,10 +23,26 @@ use graph::Circuit;
 /// integrator differentiates the right-hand side numerically.
 const P_RTOL: f64 = 1e-13;
 const MAX_ITER: usize = 200;
+/// Alternations of the pressure solve and the temperature update.
+const MAX_OUTER: usize = 12;
 
-/// Net mass flow from junction `node` into its attached blocks at pressure p.
+/// Flows between junction `node` and its attached blocks at one node state.
+#[derive(Debug, Clone, Copy)]
+struct NodeFlows {
+    /// Net mass flow out of the node into the blocks [kg/s].
+    mass: f64,
+    /// Net energy flow out of the node into the blocks [W]; zero at the
+    /// node's energy balance.
+    energy: f64,
+    /// Mass and energy flow into the node through ports whose net flow is
+    /// inward [kg/s, W].
+    in_mass: f64,
+    in_energy: f64,
+}
+
+/// Flows between a junction and its attached blocks at the given node state.
 #[allow(clippy::too_many_arguments)]
-fn net_outflow(
+fn node_flows(
     circuit: &Circuit,
     slots: &mut [Slot],
     attached: &[(usize, usize)],
@@ -34,22 +50,22 @@ fn net_outflow(
     gas: &dyn GasModel,
     t: f64,
     y: &[f64],
-) -> (f64, f64, f64) {
-    let mut s = 0.0;
-    let (mut in_m, mut in_e) = (0.0, 0.0);
+) -> NodeFlows {
+    let mut sum = NodeFlows { mass: 0.0, energy: 0.0, in_mass: 0.0, in_energy: 0.0 };
     for &(bi, k) in attached {
         let slot = &mut slots[bi];
         slot.gas[k] = state;
         let ctx = Ctx { t, gas, states: &y[slot.states.clone()], pneumatic: &slot.gas, mechanical: &slot.mech, signals: &slot.sig };
         circuit.instances[bi].block.flows(&ctx, &mut slot.flows);
         let f = slot.flows[k];
-        s += f.mdot;
+        sum.mass += f.mdot;
+        sum.energy += f.edot;
         if f.mdot < 0.0 {
-            in_m -= f.mdot;
-            in_e -= f.edot;
+            sum.in_mass -= f.mdot;
+            sum.in_energy -= f.edot;
         }
     }
-    (s, in_m, in_e)
+    sum
 }
 
 /// Pressures at the other pneumatic ports of the blocks attached to a node.
@@ -138,9 +154,10 @@ fn solve_node(
     }
     let mut temp = if t_up.is_finite() { t_up } else { 293.15 };
     let mut p = lo0;
-    for _outer in 0..4 {
+    let mut energy = EnergyRoot::default();
+    for _outer in 0..MAX_OUTER {
         let state_at = |p: f64, temp: f64| gas.state_pt(p, temp);
-        let mut eval = |p: f64| net_outflow(circuit, slots, attached, state_at(p, temp), gas, t, y).0;
+        let mut eval = |p: f64| node_flows(circuit, slots, attached, state_at(p, temp), gas, t, y).mass;
         // warm start: probe from the previous solution, at a distance sized by
         // the last change of this junction's pressure, growing until the root
         // is bracketed (few evaluations whether the state moved a little, as in
@@ -208,9 +225,28 @@ fn solve_node(
         } else {
             illinois(&mut eval, lo, f_lo, hi, f_hi).ok_or_else(|| fail("pressure iteration did not converge".into()))?
         };
-        // energy balance of the massless node
-        let (_, in_m, in_e) = net_outflow(circuit, slots, attached, gas.state_pt(p, temp), gas, t, y);
-        let new_temp = if in_m > 0.0 { temperature_from_enthalpy(gas, p, in_e / in_m, temp) } else { temp };
+        // energy balance of the massless node: E(T) = 0, the net energy flow
+        // out of the node, with p re-solved for every T
+        let f = node_flows(circuit, slots, attached, gas.state_pt(p, temp), gas, t, y);
+        if f.energy == 0.0 || f.in_mass <= 0.0 {
+            break; // balanced, or no flow at all: T keeps its value
+        }
+        let new_temp = match energy.next(temp, f.energy) {
+            Some(t1) => t1,
+            // first iterate: the mixing temperature of the inflows, exact
+            // when every port's flow has one direction (isenthalpic mixing)
+            None => {
+                let mixed = temperature_from_enthalpy(gas, p, f.in_energy / f.in_mass, temp);
+                if mixed.is_finite() && mixed > 0.5 * temp && mixed < 2.0 * temp {
+                    mixed
+                } else {
+                    // a port carries flow both ways (a valve passing gas in
+                    // and out of the same port while it switches): the
+                    // mixing formula does not apply; step towards balance
+                    temp * (1.0 - 1e-3 * f.energy.signum())
+                }
+            }
+        };
         if !new_temp.is_finite() || new_temp <= 0.0 {
             return Err(fail(format!("junction temperature not finite at p = {p} Pa")));
         }
@@ -230,6 +266,36 @@ fn solve_node(
         slots[bi].gas[k] = state;
     }
     Ok(())
+}
+
+/// Secant iteration on the node's energy balance E(T) = 0 (E increases with
+/// T: warmer gas leaving carries more enthalpy), kept inside the bracket once
+/// E has changed sign.
+#[derive(Debug, Default)]
+struct EnergyRoot {
+    last: Option<(f64, f64)>,
+    below: Option<f64>,
+    above: Option<f64>,
+}
+
+impl EnergyRoot {
+    /// The next temperature after E(t) = e, or `None` on the first call.
+    fn next(&mut self, t: f64, e: f64) -> Option<f64> {
+        if e < 0.0 {
+            self.below = Some(self.below.map_or(t, |b: f64| b.max(t)));
+        } else {
+            self.above = Some(self.above.map_or(t, |a: f64| a.min(t)));
+        }
+        let last = self.last.replace((t, e));
+        let (t0, e0) = last?;
+        let mut next = if e != e0 && t != t0 { t - e * (t - t0) / (e - e0) } else { f64::NAN };
+        match (self.below, self.above) {
+            (Some(lo), Some(hi)) if !(next >= lo && next <= hi) => next = 0.5 * (lo + hi),
+            _ if !(next > 0.5 * t && next < 2.0 * t) => next = t * (1.0 - 1e-2 * e.signum()),
+            _ => {}
+        }
+        Some(next)
+    }
 }
 
 /// Illinois regula falsi on a bracket with f(lo) < 0 < f(hi). Stops when the
@@ -272,6 +338,37 @@ fn illinois(mut f: impl FnMut(f64) -> f64, mut lo: f64, mut f_lo: f64, mut hi: f
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Drive `EnergyRoot` on E(T) from a start, returning the iterates.
+    fn energy_iterates(e: impl Fn(f64) -> f64, t0: f64, t1: f64) -> Vec<f64> {
+        let mut root = EnergyRoot::default();
+        assert!(root.next(t0, e(t0)).is_none());
+        let mut t = t1;
+        let mut seen = vec![t0, t1];
+        for _ in 0..MAX_OUTER {
+            let next = root.next(t, e(t)).expect("second call on");
+            seen.push(next);
+            if (next - t).abs() <= 1e-11 * t {
+                break;
+            }
+            t = next;
+        }
+        seen
+    }
+
+    #[test]
+    fn energy_balance_converges_when_an_iterate_is_already_the_root() {
+        // E(T) = 0.8 W/K (T − 291.99): an exact first iterate must end the
+        // iteration, not restart it from the middle of the bracket
+        let e = |t: f64| 0.8 * (t - 291.99) - 1e-15;
+        let seen = energy_iterates(e, 292.0, 291.99);
+        assert!(seen.len() <= 4, "{seen:?}");
+        assert!((seen.last().unwrap() - 291.99).abs() < 1e-9);
+        // a nonlinear, increasing E from a poor start (the cross-flow case)
+        let e = |t: f64| 0.03 * 1005.0 * (t - 300.0) + 1e-3 * (t - 300.0).powi(3);
+        let seen = energy_iterates(e, 320.0, 320.0 * (1.0 - 1e-3));
+        assert!((seen.last().unwrap() - 300.0).abs() < 1e-8, "{seen:?}");
+    }
 
     #[test]
     fn illinois_finds_roots_of_monotone_functions() {

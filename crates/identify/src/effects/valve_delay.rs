@@ -8,7 +8,8 @@
 //!
 //! Assumptions: the same delay for energising and releasing; switching
 //! itself is instantaneous. (The valve block's own `switching_time`, a
-//! gradual first-order opening, is not used: see docs/discrepancy.md.)
+//! gradual first-order spool travel, is a different effect: see
+//! docs/discrepancy.md.)
 
 use super::{check_len, Effect, EffectError, EffectParam, Scale};
 use crate::netlist_edit::{add_component, fresh_id, Topology};
