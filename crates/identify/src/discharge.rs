@@ -345,14 +345,6 @@ pub fn discharge_netlist(setup: &DischargeSetup, c: f64, b: f64, p0: f64, t_end:
     })
 }
 
-/// A loader for netlists without subsystems.
-struct NoFiles;
-impl graph::Loader for NoFiles {
-    fn read(&self, path: &Path) -> Result<String, String> {
-        Err(format!("no file access here ({})", path.display()))
-    }
-}
-
 /// Simulate the discharge and return the tank pressure at `times` (seconds
 /// from the opening, increasing, ≥ 0).
 pub fn simulate_discharge(setup: &DischargeSetup, c: f64, b: f64, p0: f64, times: &[f64]) -> Result<Vec<f64>, String> {
@@ -360,7 +352,7 @@ pub fn simulate_discharge(setup: &DischargeSetup, c: f64, b: f64, p0: f64, times
     let t_end = t_last.max(1e-9);
     let text = discharge_netlist(setup, c, b, p0, t_end).to_string();
     let netlist = graph::expand::parse(&text, "discharge_fit").map_err(|e| e.to_string())?;
-    let flat = graph::expand::flatten(&NoFiles, &netlist, Path::new(""), 0).map_err(|e| e.to_string())?;
+    let flat = graph::expand::flatten(&crate::netlist_edit::NoFiles, &netlist, Path::new(""), 0).map_err(|e| e.to_string())?;
     let circuit = graph::build(&flat).map_err(|e| e.to_string())?;
     let mut model = solve::Model::new(circuit);
     let mut spacing: Vec<f64> = times.windows(2).map(|w| w[1] - w[0]).collect();

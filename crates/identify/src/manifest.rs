@@ -267,7 +267,12 @@ mod tests {
         assert!(err.contains("head.pressure") && err.contains("head.p"), "{err}");
         let bad = parse(r#"{ "experiments": [ { "data": "b.csv" } ] }"#, "m.json").unwrap();
         assert!(resolve(&bad, &flat, &read).unwrap_err().contains("no b.csv"));
-        let bad = parse(r#"{ "experiments": [ { "data": "a.csv" } ], "calibrate": { "friction.k0": ["9 N", "2 N"] } }"#, "m.json").unwrap();
-        assert!(resolve(&bad, &flat, &read).unwrap_err().contains("not below"));
+        let bad = parse(
+            r#"{ "experiments": [ { "data": "a.csv", "columns": { "p1": "head.p" } } ], "calibrate": { "friction.k0": ["9 N", "2 N"] } }"#,
+            "m.json",
+        )
+        .unwrap();
+        let err = resolve(&bad, &flat, &read).unwrap_err();
+        assert!(err.contains("friction.k0") && err.contains("not below"), "{err}");
     }
 }

@@ -207,6 +207,16 @@ impl Topology {
     }
 }
 
+/// A loader for netlists without subsystems: this crate reads no files, so
+/// a netlist that names a subsystem file is refused with that file's name.
+pub struct NoFiles;
+
+impl graph::Loader for NoFiles {
+    fn read(&self, path: &std::path::Path) -> Result<String, String> {
+        Err(format!("no file access here ({})", path.display()))
+    }
+}
+
 /// The repository's meter-out netlist, for tests.
 #[cfg(test)]
 pub(crate) mod tests_support {
@@ -215,13 +225,7 @@ pub(crate) mod tests_support {
     pub fn meter_out() -> FlatNetlist {
         let text = include_str!("../../../models/meter_out.json");
         let netlist = graph::expand::parse(text, "meter_out.json").expect("parse");
-        struct NoFiles;
-        impl graph::Loader for NoFiles {
-            fn read(&self, p: &std::path::Path) -> Result<String, String> {
-                Err(format!("no file {}", p.display()))
-            }
-        }
-        graph::expand::flatten(&NoFiles, &netlist, std::path::Path::new("."), 0).expect("flatten")
+        graph::expand::flatten(&super::NoFiles, &netlist, std::path::Path::new("."), 0).expect("flatten")
     }
 }
 

@@ -29,13 +29,7 @@ const L_MIN_BAR: f64 = 1e-3 / 60.0 / 1e5;
 fn base(adiabatic: bool) -> graph::FlatNetlist {
     let text = include_str!("../../../models/meter_out.json");
     let netlist = graph::expand::parse(text, "meter_out.json").expect("parse");
-    struct NoFiles;
-    impl graph::Loader for NoFiles {
-        fn read(&self, p: &std::path::Path) -> Result<String, String> {
-            Err(format!("no file {}", p.display()))
-        }
-    }
-    let mut flat = graph::expand::flatten(&NoFiles, &netlist, std::path::Path::new("."), 0).expect("flatten");
+    let mut flat = graph::expand::flatten(&identify::netlist_edit::NoFiles, &netlist, std::path::Path::new("."), 0).expect("flatten");
     for s in ["controller.dwell_extended=0.2", "controller.dwell_retracted=0.2"] {
         graph::apply_set(&mut flat, s).expect("set");
     }
