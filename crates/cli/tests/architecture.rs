@@ -1,8 +1,9 @@
 //! ARCHITECTURE.md stays true: every path it names exists.
 //!
 //! Paths in backticks under a "## `crates/NAME`" heading that start with
-//! `src/` are relative to that crate; other backticked paths that start with
-//! a top-level folder are relative to the repository root.
+//! `src/`, `tests/`, `benches/` or `examples/` are relative to that crate
+//! (or, failing that, to the repository root); other backticked paths that
+//! start with a top-level folder are relative to the repository root.
 
 use std::path::Path;
 
@@ -21,11 +22,17 @@ fn every_path_in_the_codemap_exists() {
             if i % 2 == 0 || token.contains(' ') {
                 continue;
             }
-            let path = if let Some(rel) = token.strip_prefix("src/") {
-                match &crate_dir {
-                    Some(dir) => root.join(dir).join("src").join(rel),
-                    None => continue,
+            let in_crate = ["src/", "tests/", "benches/", "examples/"].iter().any(|p| token.starts_with(p));
+            let path = if let (true, Some(dir)) = (in_crate, &crate_dir) {
+                // `tests/data/` under a crate heading may still mean the repository's
+                let local = root.join(dir).join(token);
+                if local.exists() || token.starts_with("src/") {
+                    local
+                } else {
+                    root.join(token)
                 }
+            } else if token.starts_with("src/") {
+                continue;
             } else if ["crates/", "models/", "tests/", "docs/", ".ci/"].iter().any(|p| token.starts_with(p)) {
                 root.join(token)
             } else {
