@@ -529,8 +529,20 @@ pub fn run(base: &FlatNetlist, experiments: &[Experiment], calibrate: &[CalibSpe
         // phase A for every candidate, then phase B for those that pass the
         // screen: an absolute improvement on the first part of the records,
         // and at least `screen_relative` of the best candidate's improvement
-        let preps: Vec<Prepared> = tried.par_iter().map(|e| prepare(base, experiments, &current, *e, round, n_res, opts)).collect();
-        let best_short = preps.iter().map(|p| p.short_dic).filter(|d| d.is_finite()).fold(f64::INFINITY, f64::min);
+        let mut preps: Vec<Prepared> =
+            tried.par_iter().map(|e| prepare(base, experiments, &current, *e, round, n_res, opts, false)).collect();
+        let mut best_short = preps.iter().map(|p| p.short_dic).filter(|d| d.is_finite()).fold(f64::INFINITY, f64::min);
+        // Rescue (first round): the baseline's calibration on the full
+        // records stopped without converging and no candidate improved on the
+        // first part of the records. Then the candidates, started from that
+        // calibration, may simply not have reached the baseline's own
+        // short-record optimum in the screening budget (a strong missing
+        // effect drags the calibration away on the full records); start them
+        // from that optimum instead.
+        if current.effects.is_empty() && !current.fit.converged && best_short >= 0.0 && current.values_short.is_some() {
+            preps = tried.par_iter().map(|e| prepare(base, experiments, &current, *e, round, n_res, opts, true)).collect();
+            best_short = preps.iter().map(|p| p.short_dic).filter(|d| d.is_finite()).fold(f64::INFINITY, f64::min);
+        }
         let results: Vec<(Option<Structure>, Candidate)> = preps
             .into_par_iter()
             .map(|p| {
@@ -699,6 +711,7 @@ fn prepare<'a>(
     round: usize,
     n_res: usize,
     opts: &Options,
+    rescue: bool,
 ) -> Prepared<'a> {
     let slot = current.effects.len();
     let mut effects = current.effects.clone();
@@ -732,10 +745,14 @@ fn prepare<'a>(
     let mut starts = vec![start];
     if !added.is_empty() && grid.len() > 1 {
         let scan_problem = problem.truncated(screen_horizon(opts).unwrap_or(1.0));
+        let base_values = match (rescue, &current.values_short) {
+            (true, Some(v)) => v,
+            _ => &current.fit.values,
+        };
         let mut scored: Vec<(f64, Vec<f64>)> = grid
             .par_iter()
             .filter_map(|g| {
-                let mut v = current.fit.values.clone();
+                let mut v = base_values.clone();
                 v.extend(g.iter().copied());
                 Some((chi2(&scan_problem, &v).ok()?, v))
             })
@@ -750,7 +767,13 @@ fn prepare<'a>(
             starts = picked;
         }
     }
-    let fit_opts = FitOptions { stage_max_iter: opts.screen_iter, ..opts.fit.clone() };
+    let fit_opts = if rescue {
+        // from the current model's own short-record optimum: only the last
+        // short stage, with the calibration's iteration budget
+        FitOptions { horizons: screen_horizon(opts).into_iter().collect(), ..opts.fit.clone() }
+    } else {
+        FitOptions { stage_max_iter: opts.screen_iter, ..opts.fit.clone() }
+    };
     let shorts: Vec<Result<Staged, String>> = starts.par_iter().map(|st| fit_short_stages(&problem, st, &fit_opts)).collect();
     cand.evaluations += shorts.iter().map(|r| r.as_ref().map_or(0, |s| s.evaluations)).sum::<usize>();
     let mut errors: Vec<String> = shorts.iter().filter_map(|r| r.as_ref().err().cloned()).collect();

@@ -201,13 +201,19 @@ fn nothing_hidden_nothing_added() {
 
 // ---------------------------------------------------------------- full matrix
 
+/// The full matrix, or part of it: `PNEUMO_MATRIX_CYCLES` (default 3) sets
+/// the cycles per experiment, `PNEUMO_MATRIX_CASES` a comma-separated list of
+/// effects and/or `none` (default: every case).
 #[test]
-#[ignore = "full matrix: about an hour on 2 cores; run with --release -- --ignored"]
+#[ignore = "full matrix: about 1.5 hours on 2 cores; run with --release -- --ignored"]
 fn full_matrix() {
-    let cycles = 3;
+    let cycles: u64 = std::env::var("PNEUMO_MATRIX_CYCLES").ok().and_then(|v| v.parse().ok()).unwrap_or(3);
+    let only: Option<Vec<String>> = std::env::var("PNEUMO_MATRIX_CASES").ok().map(|v| v.split(',').map(|s| s.trim().to_string()).collect());
+    let wanted = |name: &str| only.as_ref().is_none_or(|o| o.iter().any(|x| x == name));
+    eprintln!("full matrix: {cycles} cycles per experiment");
     let mut rows = Vec::new();
     let mut failures = Vec::new();
-    for c in CASES {
+    for c in CASES.iter().filter(|c| wanted(c.effect)) {
         let (mut named, mut params, mut held) = (0, 0, 0);
         for seed in 1..=10 {
             let (o, _) = run(Some((c.effect, (c.values)())), c.adiabatic, true, seed, cycles);
@@ -222,7 +228,8 @@ fn full_matrix() {
             failures.push(c.effect.to_string());
         }
     }
-    for (label, perturb) in [("nothing hidden", false), ("nothing hidden, baseline perturbed", true)] {
+    let null_cases = if wanted("none") { vec![("nothing hidden", false), ("nothing hidden, baseline perturbed", true)] } else { vec![] };
+    for (label, perturb) in null_cases {
         let mut clean = 0;
         for seed in 1..=20 {
             let (o, _) = run(None, false, perturb, 100 + seed, cycles);
