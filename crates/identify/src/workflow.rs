@@ -811,6 +811,11 @@ fn screened(mut p: Prepared, why: String) -> Candidate {
     p.cand
 }
 
+/// χ²/N above which a candidate's full-record fit is restarted.
+const RESTART_CHI2_PER_SAMPLE: f64 = 2.0;
+/// At most this many restarts of a candidate's full-record fit.
+const MAX_RESTARTS: usize = 4;
+
 /// Phase B: the full-record fit and the acceptance tests.
 fn finish<'a>(current: &Structure<'a>, prep: Prepared<'a>, n_res: usize, opts: &Options) -> (Option<Structure<'a>>, Candidate) {
     let Prepared { effects, params, added, problem, short, mut cand, .. } = prep;
@@ -818,7 +823,7 @@ fn finish<'a>(current: &Structure<'a>, prep: Prepared<'a>, n_res: usize, opts: &
     let fit_opts = FitOptions { stage_max_iter: opts.screen_iter, ..opts.fit.clone() };
     let from =
         short.values_short.clone().unwrap_or_else(|| current.fit.values.iter().copied().chain(added.iter().map(|p| p.start)).collect());
-    let f = match fit_once(&problem, &from, &fit_opts) {
+    let mut f = match fit_once(&problem, &from, &fit_opts) {
         Ok(f) => f,
         Err(e) => {
             cand.reasons.push(format!("fit failed: {e}"));
@@ -826,6 +831,26 @@ fn finish<'a>(current: &Structure<'a>, prep: Prepared<'a>, n_res: usize, opts: &
         }
     };
     cand.evaluations += f.evaluations;
+    // Restart while the fit stops far above the noise level (χ²/N > 2) and
+    // each restart still lowers χ² by more than 1 %:
+    // near an event (the stick → slip switch of a breakaway) the
+    // finite-difference Jacobian is poor, Levenberg–Marquardt rejects step
+    // after step and its step test ends the fit where it stands; a fresh
+    // start (new Jacobian, reset damping) usually goes on.
+    for _ in 0..MAX_RESTARTS {
+        if f.chi2 <= RESTART_CHI2_PER_SAMPLE * n_res as f64 {
+            break;
+        }
+        let Ok(g) = fit_once(&problem, &f.values, &fit_opts) else { break };
+        cand.evaluations += g.evaluations;
+        let progress = g.chi2 < 0.99 * f.chi2;
+        if g.chi2 < f.chi2 {
+            f = g;
+        }
+        if !progress {
+            break;
+        }
+    }
     let th = &opts.thresholds;
     let first = params.len() - added.len();
     cand.fit_message = f.message.clone();
