@@ -530,7 +530,7 @@ pub fn run(base: &FlatNetlist, experiments: &[Experiment], calibrate: &[CalibSpe
         // screen: an absolute improvement on the first part of the records,
         // and at least `screen_relative` of the best candidate's improvement
         let mut preps: Vec<Prepared> =
-            tried.par_iter().map(|e| prepare(base, experiments, &current, *e, round, n_res, opts, false)).collect();
+            tried.par_iter().map(|e| prepare(base, experiments, &current, *e, Pass { round, rescue: false }, n_res, opts)).collect();
         let mut best_short = preps.iter().map(|p| p.short_dic).filter(|d| d.is_finite()).fold(f64::INFINITY, f64::min);
         // Rescue (first round): the baseline's calibration on the full
         // records stopped without converging and no candidate improved on the
@@ -540,7 +540,7 @@ pub fn run(base: &FlatNetlist, experiments: &[Experiment], calibrate: &[CalibSpe
         // effect drags the calibration away on the full records); start them
         // from that optimum instead.
         if current.effects.is_empty() && !current.fit.converged && best_short >= 0.0 && current.values_short.is_some() {
-            preps = tried.par_iter().map(|e| prepare(base, experiments, &current, *e, round, n_res, opts, true)).collect();
+            preps = tried.par_iter().map(|e| prepare(base, experiments, &current, *e, Pass { round, rescue: true }, n_res, opts)).collect();
             best_short = preps.iter().map(|p| p.short_dic).filter(|d| d.is_finite()).fold(f64::INFINITY, f64::min);
         }
         let results: Vec<(Option<Structure>, Candidate)> = preps
@@ -701,6 +701,14 @@ struct Prepared<'a> {
     cand: Candidate,
 }
 
+/// Which round a candidate is prepared for, and whether as the first round's
+/// rescue (started from the baseline's short-record optimum).
+#[derive(Debug, Clone, Copy)]
+struct Pass {
+    round: usize,
+    rescue: bool,
+}
+
 /// Phase A: scan the effect's grid for starting points and run the
 /// short-record stages of the fit from the best of them.
 fn prepare<'a>(
@@ -708,11 +716,11 @@ fn prepare<'a>(
     experiments: &'a [Experiment],
     current: &Structure<'a>,
     effect: &'a dyn Effect,
-    round: usize,
+    pass: Pass,
     n_res: usize,
     opts: &Options,
-    rescue: bool,
 ) -> Prepared<'a> {
+    let Pass { round, rescue } = pass;
     let slot = current.effects.len();
     let mut effects = current.effects.clone();
     effects.push(effect);
