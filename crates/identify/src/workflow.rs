@@ -405,15 +405,6 @@ fn heldout_refit(problem: &Problem, f: &Fit, opts: &FitOptions, max_iter: usize)
             let values = g.as_ref().map(|g| g.values.clone()).unwrap_or_default();
             p.included = Some(vec![k]);
             let rk = p.residuals(&values)?;
-            if std::env::var("IDENTIFY_DEBUG").is_ok() {
-                let own: f64 = f.values.iter().zip(&values).map(|(a, b)| ((a - b) / a.abs().max(1e-30)).abs()).fold(0.0, f64::max);
-                eprintln!(
-                    "fold {k}: rmse {:.3} max rel param change {own:.3e} values {:?} msg {:?}",
-                    (rk.iter().map(|x| x * x).sum::<f64>() / rk.len() as f64).sqrt(),
-                    values,
-                    g.as_ref().map(|g| g.message.clone())
-                );
-            }
             Ok((rk.iter().map(|x| x * x).sum::<f64>(), rk.len(), g.map(|g| g.evaluations).unwrap_or(0)))
         })
         .collect();
