@@ -9,8 +9,12 @@
 //! bisection safeguard, warm-started from the previous solution.
 //!
 //! The junction temperature follows from the energy balance of a massless
-//! node: the gas leaving it carries the mixed enthalpy of the gas entering,
-//! h_j = Σ_in Ė / Σ_in ṁ (isenthalpic throttling), converted to T at p_j.
+//! node, E(T) = Σ Ė = 0 over the attached ports with p re-solved for each T:
+//! the gas leaving carries the mixed enthalpy of the gas entering
+//! (isenthalpic throttling). The first iterate is that mixing temperature,
+//! h_j = Σ_in Ė / Σ_in ṁ, exact when every port's flow has one direction; a
+//! bracketed secant on E(T) then handles a port that carries flow both ways
+//! (a valve passing gas in and out of one port while it switches).
 //! Several junctions coupled through restrictions are solved by Gauss–Seidel
 //! sweeps of the single-node solve.
 
