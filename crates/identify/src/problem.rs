@@ -335,7 +335,7 @@ pub struct SimSettings {
 
 impl Default for SimSettings {
     fn default() -> Self {
-        SimSettings { rtol: 1e-5, atol: 1e-5, max_step: 0.05 }
+        SimSettings { rtol: 1e-6, atol: 1e-5, max_step: 0.05 }
     }
 }
 
