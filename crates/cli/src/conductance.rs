@@ -84,52 +84,30 @@ pub fn read_discharge_csv(path: &Path) -> Result<DischargeData, CliError> {
 }
 
 fn parse_discharge_csv(text: &str, origin: &str) -> Result<DischargeData, CliError> {
-    let err = |line: u64, msg: String| CliError::Data(format!("{origin}:{line}: {msg}"));
-    let mut rdr =
-        csv::ReaderBuilder::new().has_headers(true).trim(csv::Trim::All).comment(Some(b'#')).flexible(false).from_reader(text.as_bytes());
-    let headers = rdr.headers().map_err(|e| err(e.position().map_or(1, |p| p.line()), e.to_string()))?.clone();
-    let header_line = headers.position().map_or(1, |p| p.line());
-    let find = |name: &str| headers.iter().position(|h| h == name);
-    let (Some(it), Some(ip)) = (find("t"), find("p")) else {
-        return Err(err(
-            header_line,
-            format!(
-                "header must name columns \"t\" and \"p\" (optionally \"T\"), found \"{}\"",
-                headers.iter().collect::<Vec<_>>().join(",")
-            ),
-        ));
+    // the table itself (header, comments, numbers, increasing t) is read by
+    // the one CSV reader of measured data; the discharge test adds its own
+    // requirements: a pressure column, every sample present, p and T > 0
+    let table = identify::data::parse_csv(text, origin).map_err(|e| CliError::Data(e.to_string()))?;
+    let p_col = table.channel("p").ok_or_else(|| {
+        CliError::Data(format!("{origin}: header must name columns \"t\" and \"p\" (optionally \"T\"), found t,{}", table.names.join(",")))
+    })?;
+    let at = |i: usize| table.lines.get(i).copied().unwrap_or(0);
+    let column = |c: usize, name: &str, unit: &str| -> Result<Vec<f64>, CliError> {
+        table.values[c]
+            .iter()
+            .enumerate()
+            .map(|(i, v)| match v {
+                None => Err(CliError::Data(format!("{origin}:{}: column \"{name}\": the sample is missing", at(i)))),
+                Some(v) if *v <= 0.0 => {
+                    Err(CliError::Data(format!("{origin}:{}: {name} = {v} {unit}: absolute values must be > 0 (SI units: {unit})", at(i))))
+                }
+                Some(v) => Ok(*v),
+            })
+            .collect()
     };
-    let itemp = find("T");
-    let (mut t, mut p, mut temp) = (Vec::new(), Vec::new(), Vec::new());
-    for rec in rdr.records() {
-        let rec = rec.map_err(|e| err(e.position().map_or(0, |p| p.line()), e.to_string()))?;
-        let line = rec.position().map_or(0, |p| p.line());
-        let num = |i: usize, name: &str| -> Result<f64, CliError> {
-            let s = rec.get(i).unwrap_or("");
-            s.parse::<f64>().ok().filter(|v| v.is_finite()).ok_or_else(|| err(line, format!("column \"{name}\": \"{s}\" is not a number")))
-        };
-        let ti = num(it, "t")?;
-        let pi = num(ip, "p")?;
-        if pi <= 0.0 {
-            return Err(err(line, format!("p = {pi} Pa: absolute pressures must be > 0 (SI units: Pa)")));
-        }
-        if let Some(&prev) = t.last() {
-            if ti <= prev {
-                return Err(err(line, format!("t = {ti} s does not increase (previous {prev} s)")));
-            }
-        }
-        if let Some(i) = itemp {
-            let v = num(i, "T")?;
-            if v <= 0.0 {
-                return Err(err(line, format!("T = {v} K must be > 0 (SI units: K)")));
-            }
-            temp.push(v);
-        }
-        t.push(ti);
-        p.push(pi);
-    }
-    let temperature = itemp.map(|_| temp);
-    DischargeData::new(t, p, temperature).map_err(|e| CliError::Data(format!("{origin}: {e}")))
+    let p = column(p_col, "p", "Pa")?;
+    let temperature = table.channel("T").map(|c| column(c, "T", "K")).transpose()?;
+    DischargeData::new(table.times, p, temperature).map_err(|e| CliError::Data(format!("{origin}: {e}")))
 }
 
 /// The readable report.
@@ -229,8 +207,14 @@ mod tests {
         assert!(e.starts_with("d.csv:3:") && e.contains("increase"), "{e}");
         let e = parse_discharge_csv("t,p\n0,7e5\n1,6e5,3\n", "d.csv").unwrap_err().to_string();
         assert!(e.starts_with("d.csv:3:"), "{e}");
-        let e = parse_discharge_csv("t,p\n# comment\n0,7e5\n1,-6e5\n", "d.csv").unwrap_err().to_string();
+        let e = parse_discharge_csv("t,p\n# comment\n0,7e5\n1,-6e5\n2,5e5\n", "d.csv").unwrap_err().to_string();
         assert!(e.starts_with("d.csv:4:") && e.contains("> 0"), "{e}");
+        let e = parse_discharge_csv("t,p,T\n0,7e5,293\n1,6e5,0\n2,5e5,290\n", "d.csv").unwrap_err().to_string();
+        assert!(e.starts_with("d.csv:3:") && e.contains("T = 0 K"), "{e}");
+        let e = parse_discharge_csv("t,p\n0,7e5\n1,\n2,5e5\n", "d.csv").unwrap_err().to_string();
+        assert!(e.starts_with("d.csv:3:") && e.contains("missing"), "{e}");
+        let e = parse_discharge_csv("t,q\n0,7e5\n1,6e5\n2,5e5\n", "d.csv").unwrap_err().to_string();
+        assert!(e.starts_with("d.csv:") && e.contains("\"p\"") && e.contains("t,q"), "{e}");
     }
 
     #[test]

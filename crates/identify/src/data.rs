@@ -45,6 +45,9 @@ pub struct Dataset {
     pub names: Vec<String>,
     /// `values[c][i]`: channel c at sample i; `None` = missing.
     pub values: Vec<Vec<Option<f64>>>,
+    /// Line (1-based) of each sample in the source file, for messages about
+    /// a sample; empty for data not read from a file.
+    pub lines: Vec<usize>,
 }
 
 impl Dataset {
@@ -127,6 +130,7 @@ pub fn parse_csv(text: &str, origin: &str) -> Result<Dataset, DataError> {
     })?;
     let channel_cols: Vec<usize> = (0..names.len()).filter(|&k| k != t_col).collect();
     let mut times = Vec::new();
+    let mut sample_lines = Vec::new();
     let mut values: Vec<Vec<Option<f64>>> = vec![Vec::new(); channel_cols.len()];
     for (line, row) in lines {
         let fields: Vec<&str> = row.split(',').map(str::trim).collect();
@@ -174,11 +178,12 @@ pub fn parse_csv(text: &str, origin: &str) -> Result<Dataset, DataError> {
                     line,
                     column: t_col + 1,
                     name: "t".into(),
-                    message: format!("time {t} s is not after the previous sample ({prev} s)"),
+                    message: format!("time {t} s does not increase (previous sample {prev} s)"),
                 });
             }
         }
         times.push(t);
+        sample_lines.push(line);
         for (c, &k) in channel_cols.iter().enumerate() {
             values[c].push(cell(k)?);
         }
@@ -186,7 +191,13 @@ pub fn parse_csv(text: &str, origin: &str) -> Result<Dataset, DataError> {
     if times.len() < 3 {
         return Err(DataError::File { file: origin.into(), message: format!("has {} samples; at least 3 are needed", times.len()) });
     }
-    Ok(Dataset { origin: origin.to_string(), times, names: channel_cols.iter().map(|&k| names[k].clone()).collect(), values })
+    Ok(Dataset {
+        origin: origin.to_string(),
+        times,
+        names: channel_cols.iter().map(|&k| names[k].clone()).collect(),
+        values,
+        lines: sample_lines,
+    })
 }
 
 /// Robust white-noise standard deviation of one channel (see the module
@@ -238,7 +249,7 @@ mod tests {
         let e = parse_csv("time,p\n0,1\n", "c.csv").unwrap_err().to_string();
         assert!(e.contains("c.csv:1") && e.contains("\"t\""), "{e}");
         let e = parse_csv("t,p\n0,1\n0.2,1\n0.1,1\n", "d.csv").unwrap_err().to_string();
-        assert!(e.contains("d.csv:4") && e.contains("not after"), "{e}");
+        assert!(e.contains("d.csv:4") && e.contains("does not increase"), "{e}");
         let e = parse_csv("t,p\n0,1\n,2\n", "e.csv").unwrap_err().to_string();
         assert!(e.contains("e.csv:3") && e.contains("time is missing"), "{e}");
         assert!(parse_csv("", "f.csv").unwrap_err().to_string().contains("empty"));

@@ -718,6 +718,7 @@ mod tests {
             times: (0..n).map(|i| 5.0 + i as f64 * 1e-3).collect(),
             names: names.iter().map(|s| s.to_string()).collect(),
             values: names.iter().map(|_| (0..n).map(|i| Some((i % 7) as f64)).collect()).collect(),
+            lines: vec![],
         }
     }
 

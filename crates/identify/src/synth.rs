@@ -6,7 +6,7 @@
 //! # Truth generation
 //! 1. The netlist of each operating point, with the hidden effect applied,
 //!    is simulated with rtol = atol = 1e-7 and output every 0.3 ms (the fits
-//!    use rtol 1e-5 and their own output grid, so integrator error is part of
+//!    use rtol 1e-6 and their own output grid, so integrator error is part of
 //!    the test).
 //! 2. The fine output is resampled at the sensor rate (default 1 kHz) by
 //!    linear interpolation (error below 0.1 mbar at 0.3 ms spacing).
@@ -178,7 +178,7 @@ pub fn measure(result: &solve::SimResult, s: &TruthSettings, t0: f64, rng: &mut 
         let offset = offset_sd * rng.normal();
         values.push(times.iter().map(|&t| interpolate(&result.times, &col, t).map(|v| v + offset + white * rng.normal())).collect());
     }
-    Ok(Dataset { origin: "synthetic".into(), times: times.iter().map(|t| t + t0).collect(), names: s.channels.clone(), values })
+    Ok(Dataset { origin: "synthetic".into(), times: times.iter().map(|t| t + t0).collect(), names: s.channels.clone(), values, lines: vec![] })
 }
 
 /// A synthetic identification problem on a cylinder circuit.

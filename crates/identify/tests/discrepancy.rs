@@ -8,7 +8,7 @@
 //! (σ 2 mbar) and position σ = 20 µm ([`identify::synth`]). The fitted model
 //! starts with friction k0, k2 and the valve and throttle conductances 10–20 %
 //! away from the truth (random sign and size per seed) and integrates with
-//! rtol 1e-5 on a 4 ms output grid.
+//! rtol 1e-6 on a 4 ms output grid.
 //!
 //! For each effect: the right name (and nothing else), its parameter within
 //! the tolerance stated in [`CASES`], and after the fix a held-out RMSE
