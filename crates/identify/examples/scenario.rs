@@ -1,5 +1,6 @@
 //! Development driver: one synthetic scenario through the workflow, with timing.
-//! Usage: scenario EFFECT|none SEED CYCLES [perturb]
+//! Usage: scenario EFFECT|none SEED CYCLES; env knobs RTOL, ATOL, FIT_INTERVAL, FD, FTOL, MAXIT, HORIZONS,
+//! SCREENIT, CALIB, NOSCREEN, BASEONLY, REFIT, NOPERTURB (see below).
 use identify::synth::*;
 use std::path::Path;
 struct Fs;
@@ -55,6 +56,9 @@ fn main() {
     let mut opts = identify::Options::default();
     if let Ok(r) = std::env::var("RTOL") {
         opts.sim.rtol = r.parse().unwrap();
+    }
+    if let Ok(r) = std::env::var("ATOL") {
+        opts.sim.atol = r.parse().unwrap();
     }
     if let Ok(r) = std::env::var("FIT_INTERVAL") {
         opts.fit_interval = r.parse().unwrap();

@@ -13,7 +13,7 @@
 //! the gas leaving carries the mixed enthalpy of the gas entering
 //! (isenthalpic throttling). The first iterate is that mixing temperature,
 //! h_j = Σ_in Ė / Σ_in ṁ, exact when every port's flow has one direction,
-//! which is checked (E(T) must equal ṁ_in·h(T) − Ė_in); otherwise, and after
+//! which is checked (the energy leaving must be ṁ_out·h(T)); otherwise, and after
 //! it, a bracketed secant on E(T) handles a port that carries flow both ways
 //! (a valve passing gas in and out of one port while it switches).
 //! Several junctions coupled through restrictions are solved by Gauss–Seidel
@@ -30,8 +30,9 @@ const P_RTOL: f64 = 1e-13;
 const MAX_ITER: usize = 200;
 /// Alternations of the pressure solve and the temperature update.
 const MAX_OUTER: usize = 12;
-/// How closely E(T) must match the one-way mixing form ṁ_in·h(T) − Ė_in,
-/// relative to ṁ_in·c_p·T, for the mixing temperature to be used.
+/// How closely the energy leaving must match ṁ_out·h(T) (every port one
+/// way), relative to (ṁ_in + ṁ_out)·c_p·T, for the mixing temperature to be
+/// used.
 const ONE_WAY_RTOL: f64 = 1e-9;
 
 /// Flows between junction `node` and its attached blocks at one node state.
@@ -245,17 +246,17 @@ fn solve_node(
             // when every port's flow has one direction (isenthalpic mixing)
             None => {
                 // The mixing formula holds when every port's flow has one
-                // direction; then the gas leaving (ṁ_out = ṁ_in) carries
-                // h(T), so E(T) = ṁ_in·h(T) − Ė_in. A port whose net flow
-                // hides two opposite streams (a valve passing gas in and out
-                // of the same port while it switches) breaks that identity;
-                // the mixing temperature is then no root of E, and taking it
-                // as converged left the node's energy unbalanced.
+                // direction; then the gas leaving carries h(T), so the
+                // outflowing energy is Ė_out = ṁ_out·h(T). A port whose net
+                // flow hides two opposite streams (a valve passing gas in and
+                // out of the same port while it switches) breaks that
+                // identity; the mixing temperature is then no root of E, and
+                // taking it as converged left the node's energy unbalanced.
                 let rho = gas.density(p, temp);
-                let one_way = f.in_mass * gas.enthalpy(rho, temp) - f.in_energy;
-                let scale = f.in_mass * gas.cp(rho, temp) * temp;
+                let (out_mass, out_energy) = (f.mass + f.in_mass, f.energy + f.in_energy);
+                let scale = (f.in_mass + out_mass.abs()) * gas.cp(rho, temp) * temp;
                 let mixed = temperature_from_enthalpy(gas, p, f.in_energy / f.in_mass, temp);
-                if (f.energy - one_way).abs() <= ONE_WAY_RTOL * scale && mixed.is_finite() && mixed > 0.5 * temp && mixed < 2.0 * temp {
+                if (out_energy - out_mass * gas.enthalpy(rho, temp)).abs() <= ONE_WAY_RTOL * scale && mixed.is_finite() && mixed > 0.5 * temp && mixed < 2.0 * temp {
                     mixed
                 } else {
                     // step towards balance; the secant takes over from here
