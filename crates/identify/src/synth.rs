@@ -178,7 +178,13 @@ pub fn measure(result: &solve::SimResult, s: &TruthSettings, t0: f64, rng: &mut 
         let offset = offset_sd * rng.normal();
         values.push(times.iter().map(|&t| interpolate(&result.times, &col, t).map(|v| v + offset + white * rng.normal())).collect());
     }
-    Ok(Dataset { origin: "synthetic".into(), times: times.iter().map(|t| t + t0).collect(), names: s.channels.clone(), values, lines: vec![] })
+    Ok(Dataset {
+        origin: "synthetic".into(),
+        times: times.iter().map(|t| t + t0).collect(),
+        names: s.channels.clone(),
+        values,
+        lines: vec![],
+    })
 }
 
 /// A synthetic identification problem on a cylinder circuit.

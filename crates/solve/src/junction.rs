@@ -256,7 +256,11 @@ fn solve_node(
                 let (out_mass, out_energy) = (f.mass + f.in_mass, f.energy + f.in_energy);
                 let scale = (f.in_mass + out_mass.abs()) * gas.cp(rho, temp) * temp;
                 let mixed = temperature_from_enthalpy(gas, p, f.in_energy / f.in_mass, temp);
-                if (out_energy - out_mass * gas.enthalpy(rho, temp)).abs() <= ONE_WAY_RTOL * scale && mixed.is_finite() && mixed > 0.5 * temp && mixed < 2.0 * temp {
+                if (out_energy - out_mass * gas.enthalpy(rho, temp)).abs() <= ONE_WAY_RTOL * scale
+                    && mixed.is_finite()
+                    && mixed > 0.5 * temp
+                    && mixed < 2.0 * temp
+                {
                     mixed
                 } else {
                     // step towards balance; the secant takes over from here
