@@ -236,7 +236,8 @@ fn solve_node(
         };
         // energy balance of the massless node: E(T) = 0, the net energy flow
         // out of the node, with p re-solved for every T
-        let f = node_flows(circuit, slots, attached, gas.state_pt(p, temp), gas, t, y);
+        let state = gas.state_pt(p, temp);
+        let f = node_flows(circuit, slots, attached, state, gas, t, y);
         if f.energy == 0.0 || f.in_mass <= 0.0 {
             break; // balanced, or no flow at all: T keeps its value
         }
@@ -252,11 +253,10 @@ fn solve_node(
                 // out of the same port while it switches) breaks that
                 // identity; the mixing temperature is then no root of E, and
                 // taking it as converged left the node's energy unbalanced.
-                let rho = gas.density(p, temp);
                 let (out_mass, out_energy) = (f.mass + f.in_mass, f.energy + f.in_energy);
-                let scale = (f.in_mass + out_mass.abs()) * gas.cp(rho, temp) * temp;
+                let scale = (f.in_mass + out_mass.abs()) * gas.cp(state.rho, temp) * temp;
                 let mixed = temperature_from_enthalpy(gas, p, f.in_energy / f.in_mass, temp);
-                if (out_energy - out_mass * gas.enthalpy(rho, temp)).abs() <= ONE_WAY_RTOL * scale
+                if (out_energy - out_mass * state.h).abs() <= ONE_WAY_RTOL * scale
                     && mixed.is_finite()
                     && mixed > 0.5 * temp
                     && mixed < 2.0 * temp
