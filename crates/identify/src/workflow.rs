@@ -522,7 +522,7 @@ pub fn run(base: &FlatNetlist, experiments: &[Experiment], calibrate: &[CalibSpe
         // and at least `screen_relative` of the best candidate's improvement
         let mut preps: Vec<Prepared> =
             tried.par_iter().map(|e| prepare(base, experiments, &current, *e, Pass { round, rescue: false }, n_res, opts)).collect();
-        let mut best_short = preps.iter().map(|p| p.short_dic).filter(|d| d.is_finite()).fold(f64::INFINITY, f64::min);
+        let mut best_short = best_short_dic(&preps);
         // Rescue (first round): the baseline's calibration on the full
         // records stopped without converging and no candidate improved on the
         // first part of the records. Then the candidates, started from that
@@ -532,7 +532,7 @@ pub fn run(base: &FlatNetlist, experiments: &[Experiment], calibrate: &[CalibSpe
         // from that optimum instead.
         if current.effects.is_empty() && !current.fit.converged && best_short >= 0.0 && current.values_short.is_some() {
             preps = tried.par_iter().map(|e| prepare(base, experiments, &current, *e, Pass { round, rescue: true }, n_res, opts)).collect();
-            best_short = preps.iter().map(|p| p.short_dic).filter(|d| d.is_finite()).fold(f64::INFINITY, f64::min);
+            best_short = best_short_dic(&preps);
         }
         let results: Vec<(Option<Structure>, Candidate)> = preps
             .into_par_iter()
@@ -690,6 +690,11 @@ struct Prepared<'a> {
     /// The screening threshold on `short_dic`.
     screen_at: f64,
     cand: Candidate,
+}
+
+/// The lowest finite short-record ΔIC of the prepared candidates (∞ if none).
+fn best_short_dic(preps: &[Prepared]) -> f64 {
+    preps.iter().map(|p| p.short_dic).filter(|d| d.is_finite()).fold(f64::INFINITY, f64::min)
 }
 
 /// Which round a candidate is prepared for, and whether as the first round's
