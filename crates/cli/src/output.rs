@@ -1,27 +1,54 @@
 //! Writing result files atomically: to a temporary file beside the target,
 //! renamed into place only when complete, so a failed run leaves no partial file.
+//! A target that exists and is not a regular file (`/dev/null`, `/dev/stdout`,
+//! a named pipe) is written in place: renaming over it would replace the device
+//! by a regular file. A symbolic link is followed, so the link stays a link.
 
 use crate::error::CliError;
 use solve::SimResult;
 use std::io::Write;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
-/// Write `bytes` to `path` through a temporary file and a rename.
+/// Write `bytes` to `path` through a temporary file and a rename, or in place
+/// when `path` names something other than a regular file.
 pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), CliError> {
-    let dir = path.parent().filter(|d| !d.as_os_str().is_empty()).unwrap_or(Path::new("."));
-    let name = path.file_name().ok_or_else(|| CliError::Usage(format!("{} is not a file name", path.display())))?;
-    let tmp = dir.join(format!(".{}.tmp{}", name.to_string_lossy(), std::process::id()));
+    let target = match std::fs::canonicalize(path) {
+        Ok(real) => {
+            let is_file = std::fs::metadata(&real).map_err(|e| CliError::io(path, e))?.is_file();
+            if !is_file {
+                return write_in_place(&real, bytes).map_err(|e| CliError::io(path, e));
+            }
+            real
+        }
+        // Not there yet (or a dangling link): create it beside the given path.
+        Err(_) => path.to_path_buf(),
+    };
+    let tmp = temporary_beside(&target).ok_or_else(|| CliError::Usage(format!("{} is not a file name", path.display())))?;
     let result = (|| {
         let mut f = std::fs::File::create(&tmp)?;
         f.write_all(bytes)?;
         f.sync_all()?;
-        std::fs::rename(&tmp, path)
+        std::fs::rename(&tmp, &target)
     })();
     if let Err(e) = result {
         let _ = std::fs::remove_file(&tmp);
         return Err(CliError::io(path, e));
     }
     Ok(())
+}
+
+/// A hidden temporary name in the directory of `target`, unique to this process.
+fn temporary_beside(target: &Path) -> Option<PathBuf> {
+    let dir = target.parent().filter(|d| !d.as_os_str().is_empty()).unwrap_or(Path::new("."));
+    let name = target.file_name()?;
+    Some(dir.join(format!(".{}.tmp{}", name.to_string_lossy(), std::process::id())))
+}
+
+/// Write into an existing non-regular file (a device or a pipe) without creating anything.
+fn write_in_place(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
+    let mut f = std::fs::OpenOptions::new().write(true).open(path)?;
+    f.write_all(bytes)?;
+    f.flush()
 }
 
 /// Columns to write: all, or the selection (each must exist).
@@ -97,4 +124,57 @@ pub fn summary(result: &SimResult, model_name: &str, columns: &[usize]) -> serde
             "events": result.events.len(), "samples": result.times.len()
         }
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn scratch(name: &str) -> PathBuf {
+        let dir = std::env::temp_dir().join(format!("pneumo-output-{name}-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        std::fs::create_dir_all(&dir).unwrap();
+        dir
+    }
+
+    #[test]
+    fn a_new_file_is_written_and_no_temporary_is_left() {
+        let dir = scratch("new");
+        let out = dir.join("r.csv");
+        write_atomic(&out, b"t\n0\n").unwrap();
+        assert_eq!(std::fs::read(&out).unwrap(), b"t\n0\n");
+        let names: Vec<_> = std::fs::read_dir(&dir).unwrap().map(|e| e.unwrap().file_name()).collect();
+        assert_eq!(names, vec![std::ffi::OsString::from("r.csv")]);
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    #[cfg(unix)]
+    #[test]
+    fn a_symbolic_link_stays_a_link_and_its_target_is_replaced() {
+        let dir = scratch("link");
+        let real = dir.join("real.csv");
+        let link = dir.join("link.csv");
+        std::fs::write(&real, b"old").unwrap();
+        std::os::unix::fs::symlink(&real, &link).unwrap();
+        write_atomic(&link, b"new").unwrap();
+        assert!(std::fs::symlink_metadata(&link).unwrap().file_type().is_symlink());
+        assert_eq!(std::fs::read(&real).unwrap(), b"new");
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    /// `--out /dev/null` must not turn the device into a regular file (which
+    /// happens to a rename when the writer may create files in /dev).
+    #[cfg(unix)]
+    #[test]
+    fn a_device_is_written_in_place_and_stays_a_device() {
+        use std::os::unix::fs::FileTypeExt;
+        let null = Path::new("/dev/null");
+        let is_device = |p: &Path| std::fs::metadata(p).map(|m| m.file_type().is_char_device()).unwrap_or(false);
+        if !is_device(null) {
+            eprintln!("skipped: /dev/null is not a character device on this machine");
+            return;
+        }
+        write_atomic(null, b"discarded").unwrap();
+        assert!(is_device(null), "/dev/null was replaced by a regular file");
+    }
 }
