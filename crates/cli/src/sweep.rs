@@ -148,6 +148,8 @@ enum Target {
     Simulation(String),
     /// A declared block parameter.
     Param(&'static blocks::params::ParamSpec),
+    /// `gas.model` or `gas.species`, with the accepted words.
+    Gas(&'static [&'static str]),
 }
 
 /// Resolve `ID.PARAM` against the flat netlist and the block declarations.
@@ -157,6 +159,13 @@ fn resolve(flat: &FlatNetlist, target: &str) -> Result<Target, String> {
         return match param {
             "t_end" | "sample_interval" | "max_step" | "rtol" | "atol" | "cycles" => Ok(Target::Simulation(param.into())),
             _ => Err(format!("unknown simulation setting \"{param}\" (rtol, atol, t_end, cycles, sample_interval, max_step)")),
+        };
+    }
+    if id == "gas" && !flat.components.iter().any(|c| c.id == "gas") {
+        return match param {
+            "model" => Ok(Target::Gas(&["ideal", "semi_perfect", "real"])),
+            "species" => Ok(Target::Gas(&["air", "nitrogen"])),
+            _ => Err(format!("unknown gas setting \"{param}\" (model, species)")),
         };
     }
     let comp = flat.components.iter().find(|c| c.id == id).ok_or_else(|| {
@@ -192,6 +201,13 @@ fn si_value(target: &Target, text: &str) -> Result<Cell, String> {
             }
         }
         Target::Param(spec) => spec,
+        Target::Gas(words) => {
+            return words
+                .iter()
+                .find(|w| w.eq_ignore_ascii_case(text))
+                .map(|w| Cell::Text(w.to_string()))
+                .ok_or_else(|| format!("\"{text}\": expected one of {}", words.join(", ")))
+        }
     };
     match spec.kind {
         ParamKind::Quantity(dim) => {

@@ -236,7 +236,7 @@ fn bad_input_fails_before_running_with_one_line() {
     let m = model();
     let m = m.to_str().unwrap();
     let o = out.to_str().unwrap();
-    let cases: [(&[&str], &str); 7] = [
+    let cases: [(&[&str], &str); 9] = [
         (&["--vary", "supply.p 4 bar,7 bar"], "expected ID.PARAM=V1,V2"),
         (&["--vary", "supply.p=4 bar,,7 bar"], "empty value"),
         (&["--vary", "suply.p=4 bar"], "no component \"suply\""),
@@ -244,6 +244,8 @@ fn bad_input_fails_before_running_with_one_line() {
         (&["--vary", "supply.p=4 bar,7 m"], "7 m"),
         (&["--vary", "supply.p=4 bar", "--shard", "3/2"], "--shard"),
         (&["--vary", "supply.p=4 bar", "--jobs", "0"], "--jobs"),
+        (&["--vary", "gas.model=ideal,vdw"], "\"vdw\": expected one of ideal, semi_perfect, real"),
+        (&["--vary", "gas.density=1"], "unknown gas setting \"density\""),
     ];
     for (extra, expect) in cases {
         let mut args = vec!["sweep", m, "--out", o];
@@ -252,5 +254,23 @@ fn bad_input_fails_before_running_with_one_line() {
         assert!(err.contains(expect), "{extra:?}: {err}");
         assert!(!out.exists(), "{extra:?} wrote an output file");
     }
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn the_gas_model_can_be_swept() {
+    let dir = scratch("gas");
+    let out = dir.join("gas.csv");
+    let m = model();
+    ok(&["sweep", m.to_str().unwrap(), "--vary", "gas.model=ideal,REAL", "--cycles", "1", "--out", out.to_str().unwrap()]);
+    let (header, rows) = read_csv(&out);
+    let (g, t) = (col(&header, "gas.model"), col(&header, "cycle1_total_s"));
+    assert_eq!(rows.iter().map(|r| r[g].as_str()).collect::<Vec<_>>(), ["ideal", "real"]);
+    // The same case through `pneumo simulate`: identical cycle time.
+    let summary = dir.join("real.json");
+    ok(&["simulate", m.to_str().unwrap(), "--cycles", "1", "--set", "gas.model=real", "--summary", summary.to_str().unwrap()]);
+    let v: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&summary).unwrap()).unwrap();
+    assert_eq!(num(&rows[1][t]), v["cycles"][0]["total_s"].as_f64().unwrap());
+    assert_ne!(num(&rows[0][t]), num(&rows[1][t]));
     let _ = std::fs::remove_dir_all(&dir);
 }

@@ -130,9 +130,29 @@ pub fn apply_set(flat: &mut FlatNetlist, assignment: &str) -> Result<(), GraphEr
     if id == "simulation" {
         return apply_simulation_set(&mut flat.simulation, param, value).map_err(|m| bad(&m));
     }
+    // `gas.model` and `gas.species` choose the gas of the whole circuit, unless
+    // a component is itself called "gas".
+    if id == "gas" && !flat.components.iter().any(|c| c.id == "gas") {
+        return apply_gas_set(&mut flat.gas, param, value).map_err(|m| bad(&m));
+    }
     let comp = flat.components.iter_mut().find(|c| c.id == id).ok_or_else(|| bad(&format!("no component \"{id}\"")))?;
     comp.init.remove(param);
     comp.params.insert(param.to_string(), value_from_text(value));
+    Ok(())
+}
+
+fn apply_gas_set(gas: &mut crate::netlist::GasChoice, param: &str, value: &str) -> Result<(), String> {
+    let word = serde_json::Value::String(value.trim().to_ascii_lowercase());
+    match param {
+        "model" => {
+            gas.model =
+                serde_json::from_value(word).map_err(|_| format!("unknown gas model \"{}\" (ideal, semi_perfect, real)", value.trim()))?
+        }
+        "species" => {
+            gas.species = serde_json::from_value(word).map_err(|_| format!("unknown gas species \"{}\" (air, nitrogen)", value.trim()))?
+        }
+        _ => return Err(format!("unknown gas setting \"{param}\" (model, species)")),
+    }
     Ok(())
 }
 
@@ -148,4 +168,51 @@ fn apply_simulation_set(sim: &mut Simulation, param: &str, value: &str) -> Resul
         _ => return Err(format!("unknown simulation setting \"{param}\" (rtol, atol, t_end, cycles, sample_interval, max_step)")),
     }
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::netlist::{GasModelName, Species};
+
+    struct NoFiles;
+    impl Loader for NoFiles {
+        fn read(&self, path: &Path) -> Result<String, String> {
+            Err(format!("no file {}", path.display()))
+        }
+    }
+
+    fn flat(components: &str) -> FlatNetlist {
+        let text = format!(r#"{{"name": "t", "components": [{components}]}}"#);
+        flatten(&NoFiles, &parse(&text, "t.json").unwrap(), Path::new("."), 0).unwrap()
+    }
+
+    #[test]
+    fn gas_model_and_species_are_set_by_name() {
+        let mut f = flat(r#"{"id": "v", "type": "chamber", "params": {}}"#);
+        assert_eq!(f.gas.model, GasModelName::Ideal);
+        apply_set(&mut f, "gas.model=real").unwrap();
+        apply_set(&mut f, "gas.species= nitrogen").unwrap();
+        assert_eq!((f.gas.model, f.gas.species), (GasModelName::Real, Species::Nitrogen));
+        apply_set(&mut f, "gas.model=Semi_Perfect").unwrap();
+        assert_eq!(f.gas.model, GasModelName::SemiPerfect);
+    }
+
+    #[test]
+    fn unknown_gas_settings_name_the_choices() {
+        let mut f = flat(r#"{"id": "v", "type": "chamber", "params": {}}"#);
+        let e = apply_set(&mut f, "gas.model=van_der_waals").unwrap_err().to_string();
+        assert!(e.contains("van_der_waals") && e.contains("ideal, semi_perfect, real"), "{e}");
+        let e = apply_set(&mut f, "gas.pressure=3").unwrap_err().to_string();
+        assert!(e.contains("\"pressure\"") && e.contains("model, species"), "{e}");
+        assert_eq!(f.gas.model, GasModelName::Ideal);
+    }
+
+    #[test]
+    fn a_component_called_gas_keeps_its_parameters() {
+        let mut f = flat(r#"{"id": "gas", "type": "chamber", "params": {}}"#);
+        apply_set(&mut f, "gas.model=real").unwrap();
+        assert_eq!(f.gas.model, GasModelName::Ideal);
+        assert!(f.components[0].params.contains_key("model"));
+    }
 }
