@@ -163,8 +163,8 @@ fn resolve(flat: &FlatNetlist, target: &str) -> Result<Target, String> {
     }
     if id == "gas" && !flat.components.iter().any(|c| c.id == "gas") {
         return match param {
-            "model" => Ok(Target::Gas(&["ideal", "semi_perfect", "real"])),
-            "species" => Ok(Target::Gas(&["air", "nitrogen"])),
+            "model" => Ok(Target::Gas(graph::netlist::GasModelName::NAMES)),
+            "species" => Ok(Target::Gas(graph::netlist::Species::NAMES)),
             _ => Err(format!("unknown gas setting \"{param}\" (model, species)")),
         };
     }

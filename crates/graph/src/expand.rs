@@ -7,7 +7,7 @@
 //! `cyl.piston`, ...; its exposed ports `cyl.head_port` are rewritten to the
 //! inner ports they stand for.
 
-use crate::netlist::{split_ref, Component, Netlist, Simulation, Value};
+use crate::netlist::{split_ref, Component, GasModelName, Netlist, Simulation, Species, Value};
 use crate::GraphError;
 use std::collections::BTreeMap;
 use std::path::Path;
@@ -145,11 +145,12 @@ fn apply_gas_set(gas: &mut crate::netlist::GasChoice, param: &str, value: &str) 
     let word = serde_json::Value::String(value.trim().to_ascii_lowercase());
     match param {
         "model" => {
-            gas.model =
-                serde_json::from_value(word).map_err(|_| format!("unknown gas model \"{}\" (ideal, semi_perfect, real)", value.trim()))?
+            let names = GasModelName::NAMES.join(", ");
+            gas.model = serde_json::from_value(word).map_err(|_| format!("unknown gas model \"{}\" ({names})", value.trim()))?
         }
         "species" => {
-            gas.species = serde_json::from_value(word).map_err(|_| format!("unknown gas species \"{}\" (air, nitrogen)", value.trim()))?
+            let names = Species::NAMES.join(", ");
+            gas.species = serde_json::from_value(word).map_err(|_| format!("unknown gas species \"{}\" ({names})", value.trim()))?
         }
         _ => return Err(format!("unknown gas setting \"{param}\" (model, species)")),
     }
@@ -173,7 +174,6 @@ fn apply_simulation_set(sim: &mut Simulation, param: &str, value: &str) -> Resul
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::netlist::{GasModelName, Species};
 
     struct NoFiles;
     impl Loader for NoFiles {
@@ -196,6 +196,17 @@ mod tests {
         assert_eq!((f.gas.model, f.gas.species), (GasModelName::Real, Species::Nitrogen));
         apply_set(&mut f, "gas.model=Semi_Perfect").unwrap();
         assert_eq!(f.gas.model, GasModelName::SemiPerfect);
+    }
+
+    #[test]
+    fn every_listed_gas_word_is_accepted() {
+        let mut f = flat(r#"{"id": "v", "type": "chamber", "params": {}}"#);
+        for word in GasModelName::NAMES {
+            apply_set(&mut f, &format!("gas.model={word}")).unwrap();
+        }
+        for word in Species::NAMES {
+            apply_set(&mut f, &format!("gas.species={word}")).unwrap();
+        }
     }
 
     #[test]

@@ -65,6 +65,16 @@ pub enum Species {
     Nitrogen,
 }
 
+impl GasModelName {
+    /// The words a netlist or `--set gas.model=` accepts.
+    pub const NAMES: &'static [&'static str] = &["ideal", "semi_perfect", "real"];
+}
+
+impl Species {
+    /// The words a netlist or `--set gas.species=` accepts.
+    pub const NAMES: &'static [&'static str] = &["air", "nitrogen"];
+}
+
 /// A parameter value: a number in SI units, a string with a unit ("4 bar"),
 /// or a list of these.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
