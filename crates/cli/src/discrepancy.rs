@@ -214,21 +214,12 @@ fn display(signal: &str) -> (f64, String) {
 /// A drawn line: label, colour, width, points.
 type Series = (&'static str, RGBColor, u32, Vec<(f64, f64)>);
 
-/// Render with `draw` into `path` through a temporary file in the same directory.
+/// Render with `draw` and write the PNG to `path` whole or not at all.
 fn png(path: &Path, draw: impl FnOnce(&Path) -> Result<(), String>) -> Result<(), CliError> {
     ensure_font()?;
-    let dir = path.parent().unwrap_or(Path::new("."));
-    let name = path.file_name().map(|n| n.to_string_lossy().to_string()).unwrap_or_default();
-    let tmp = dir.join(format!(".{name}.tmp{}.png", std::process::id()));
-    let r = draw(&tmp).map_err(|e| CliError::Data(format!("cannot draw {}: {e}", path.display())));
-    if let Err(e) = r {
-        let _ = std::fs::remove_file(&tmp);
-        return Err(e);
-    }
-    std::fs::rename(&tmp, path).map_err(|e| {
-        let _ = std::fs::remove_file(&tmp);
-        CliError::io(path, e)
-    })
+    let bytes =
+        crate::plot::png_via_scratch(|file| draw(file).map_err(|e| CliError::Data(format!("cannot draw {}: {e}", path.display()))))?;
+    write_atomic(path, &bytes)
 }
 
 fn range(values: impl Iterator<Item = f64>) -> (f64, f64) {

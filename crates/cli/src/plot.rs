@@ -705,17 +705,22 @@ fn render(fig: &Figure, path: &Path) -> Result<Vec<u8>, CliError> {
             }
             Ok(text.into_bytes())
         }
-        Format::Png => {
-            let dir = ScratchDir::new()?;
-            let file = dir.path.join("plot.png");
-            {
-                let root = BitMapBackend::new(&file, size).into_drawing_area();
-                draw(&root, fig).map_err(fail)?;
-                root.present().map_err(|e| fail(e.to_string()))?;
-            }
-            std::fs::read(&file).map_err(|e| CliError::io(&file, e))
-        }
+        Format::Png => png_via_scratch(|file| {
+            let root = BitMapBackend::new(file, size).into_drawing_area();
+            draw(&root, fig).map_err(fail)?;
+            root.present().map_err(|e| fail(e.to_string()))
+        }),
     }
+}
+
+/// Let `draw` write a PNG file into a private scratch directory and return its
+/// bytes (plotters' bitmap backend writes to a path; the caller then writes
+/// the bytes with [`write_atomic`], which knows about devices and links).
+pub fn png_via_scratch(draw: impl FnOnce(&Path) -> Result<(), CliError>) -> Result<Vec<u8>, CliError> {
+    let dir = ScratchDir::new()?;
+    let file = dir.path.join("plot.png");
+    draw(&file)?;
+    std::fs::read(&file).map_err(|e| CliError::io(&file, e))
 }
 
 /// Smallest and largest finite value, padded so the range is never empty.
