@@ -161,12 +161,8 @@ fn resolve(flat: &FlatNetlist, target: &str) -> Result<Target, String> {
             _ => Err(format!("unknown simulation setting \"{param}\" (rtol, atol, t_end, cycles, sample_interval, max_step)")),
         };
     }
-    if id == "gas" && !flat.components.iter().any(|c| c.id == "gas") {
-        return match param {
-            "model" => Ok(Target::Gas(graph::netlist::GasModelName::NAMES)),
-            "species" => Ok(Target::Gas(graph::netlist::Species::NAMES)),
-            _ => Err(format!("unknown gas setting \"{param}\" (model, species)")),
-        };
+    if let Some(words) = graph::expand::gas_setting_words(flat, id, param) {
+        return words.map(Target::Gas);
     }
     let comp = flat.components.iter().find(|c| c.id == id).ok_or_else(|| {
         let ids: Vec<&str> = flat.components.iter().map(|c| c.id.as_str()).collect();

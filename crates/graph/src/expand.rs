@@ -130,10 +130,8 @@ pub fn apply_set(flat: &mut FlatNetlist, assignment: &str) -> Result<(), GraphEr
     if id == "simulation" {
         return apply_simulation_set(&mut flat.simulation, param, value).map_err(|m| bad(&m));
     }
-    // `gas.model` and `gas.species` choose the gas of the whole circuit, unless
-    // a component is itself called "gas".
-    if id == "gas" && !flat.components.iter().any(|c| c.id == "gas") {
-        return apply_gas_set(&mut flat.gas, param, value).map_err(|m| bad(&m));
+    if let Some(words) = gas_setting_words(flat, id, param) {
+        return apply_gas_set(&mut flat.gas, param, value, words.map_err(|m| bad(&m))?).map_err(|m| bad(&m));
     }
     let comp = flat.components.iter_mut().find(|c| c.id == id).ok_or_else(|| bad(&format!("no component \"{id}\"")))?;
     comp.init.remove(param);
@@ -141,18 +139,30 @@ pub fn apply_set(flat: &mut FlatNetlist, assignment: &str) -> Result<(), GraphEr
     Ok(())
 }
 
-fn apply_gas_set(gas: &mut crate::netlist::GasChoice, param: &str, value: &str) -> Result<(), String> {
-    let word = serde_json::Value::String(value.trim().to_ascii_lowercase());
-    match param {
-        "model" => {
-            let names = GasModelName::NAMES.join(", ");
-            gas.model = serde_json::from_value(word).map_err(|_| format!("unknown gas model \"{}\" ({names})", value.trim()))?
-        }
-        "species" => {
-            let names = Species::NAMES.join(", ");
-            gas.species = serde_json::from_value(word).map_err(|_| format!("unknown gas species \"{}\" ({names})", value.trim()))?
-        }
-        _ => return Err(format!("unknown gas setting \"{param}\" (model, species)")),
+/// When `id.param` names the circuit's gas (`gas.model`, `gas.species`; a
+/// component called "gas" takes precedence): the words it accepts, or why the
+/// setting is unknown. `None` when `id.param` is not about the gas.
+pub fn gas_setting_words(flat: &FlatNetlist, id: &str, param: &str) -> Option<Result<&'static [&'static str], String>> {
+    if id != "gas" || flat.components.iter().any(|c| c.id == "gas") {
+        return None;
+    }
+    Some(match param {
+        "model" => Ok(GasModelName::NAMES),
+        "species" => Ok(Species::NAMES),
+        _ => Err(format!("unknown gas setting \"{param}\" (model, species)")),
+    })
+}
+
+/// Set `gas.<param>` to the listed word `value` names (case-insensitive).
+fn apply_gas_set(gas: &mut crate::netlist::GasChoice, param: &str, value: &str, words: &[&str]) -> Result<(), String> {
+    let value = value.trim();
+    let unknown = || format!("unknown gas {param} \"{value}\" ({})", words.join(", "));
+    let word = words.iter().find(|w| w.eq_ignore_ascii_case(value)).ok_or_else(unknown)?;
+    let word = serde_json::Value::String(word.to_string());
+    if param == "model" {
+        gas.model = serde_json::from_value(word).map_err(|_| unknown())?;
+    } else {
+        gas.species = serde_json::from_value(word).map_err(|_| unknown())?;
     }
     Ok(())
 }
