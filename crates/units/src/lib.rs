@@ -48,13 +48,21 @@
 //! Errors ([`UnitError`]) are one-line messages naming what was found and
 //! what would have been accepted, e.g.
 //! `unit "mm" is a length, expected a pressure (accepted: Pa, kPa, ...)`.
+//!
+//! # Expressions
+//!
+//! Parameters written as `"= pi/4 * bore^2"` or `"= supply.p - 0.5 bar"` are
+//! parsed by [`parse_expr`] and evaluated with dimension checking to a
+//! [`Quantity`]; see the [`expr`] module for the grammar and rules.
 
 mod dimension;
 mod error;
+pub mod expr;
 mod parse;
 
 pub use dimension::{dim, Dimension};
 pub use error::UnitError;
+pub use expr::{is_expression, parse_expr, Expr, ExprError, ExprErrorKind, Quantity};
 
 /// Standard atmosphere, the reference for gauge units such as "3 barg" \[Pa\].
 pub const STANDARD_ATMOSPHERE: f64 = 101_325.0;
