@@ -64,6 +64,17 @@ impl PortKind {
     }
 }
 
+impl Domain {
+    /// The variables a port of this domain carries, with their SI units.
+    pub fn variables(self) -> &'static str {
+        match self {
+            Domain::Pneumatic => "p [Pa], T [K]; mass flow [kg/s] and energy flow [W] into the block",
+            Domain::Mechanical => "x [m], v [m/s]; force [N] in the extend direction",
+            Domain::Signal => "a value in the port's unit",
+        }
+    }
+}
+
 impl std::fmt::Display for Domain {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         f.write_str(match self {
@@ -79,13 +90,22 @@ impl std::fmt::Display for Domain {
 pub struct PortSpec {
     pub name: &'static str,
     pub kind: PortKind,
-    /// One line: what flows through it, with units for signals.
+    /// SI unit of a signal ("Pa", "m", "1" for a pure number, "" when it
+    /// carries whatever its input carries). Power ports have the units of
+    /// their domain (see [`Domain::variables`]).
+    pub unit: &'static str,
+    /// One line: what flows through it.
     pub doc: &'static str,
 }
 
 impl PortSpec {
+    /// A pneumatic or mechanical port.
     pub const fn new(name: &'static str, kind: PortKind, doc: &'static str) -> Self {
-        Self { name, kind, doc }
+        Self { name, kind, unit: "", doc }
+    }
+    /// A signal port carrying a value in `unit`.
+    pub const fn signal(name: &'static str, kind: PortKind, unit: &'static str, doc: &'static str) -> Self {
+        Self { name, kind, unit, doc }
     }
 }
 
@@ -255,6 +275,43 @@ pub struct InitCtx<'a> {
     pub mechanical: &'a [MechState],
 }
 
+/// Initial values a block leaves open, which a rest-state computation may
+/// choose (those the user gave explicitly are never changed).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct FreeInitial {
+    /// The initial gas pressure of a capacity.
+    pub pressure: bool,
+    /// The initial gas temperature of a capacity.
+    pub temperature: bool,
+    /// The initial position of an inertia (which then starts at rest).
+    pub position: bool,
+}
+
+/// Something a block states about itself that must agree with what other
+/// blocks state (compared by `graph` to warn about inconsistent input).
+/// Each fact is attached to one of the block's ports: facts about a moving
+/// mass are compared between blocks on the same mechanical node (a signal
+/// input counts as being on the node of the block that drives it).
+#[derive(Debug, Clone, PartialEq)]
+pub enum Fact {
+    /// Stroke of the actuator [m] (piston travel, rod-side gas column).
+    Stroke(f64),
+    /// Position [m] at which a limit switch on this mass trips (≤ stroke).
+    SwitchPosition(f64),
+    /// Piston diameter [m].
+    Bore(f64),
+    /// Rod diameter [m].
+    RodDiameter(f64),
+    /// Pressure [Pa] a supply imposes (compared with the ambient).
+    SupplyPressure(f64),
+    /// Ambient pressure [Pa] (an exhaust).
+    AmbientPressure(f64),
+    /// The values a command output takes.
+    CommandLevels(Vec<f64>),
+    /// An on/off command input: released at `released`, actuated at `actuated`.
+    CommandThresholds { released: f64, actuated: f64 },
+}
+
 /// A component of a pneumatic circuit.
 ///
 /// Every method has a do-nothing default so a block implements only the
@@ -338,6 +395,24 @@ pub trait Block: std::fmt::Debug + Send + Sync {
     /// Whether the block's discrete state asks the simulation to stop.
     fn finished(&self) -> bool {
         false
+    }
+    /// Signal outputs while the circuit rests before t = 0: a controller is
+    /// released (its commands at their idle value), a sensor reads the state.
+    /// Default: the same as [`Block::signal_outputs`].
+    fn rest_signal_outputs(&self, ctx: &Ctx, out: &mut [f64]) {
+        self.signal_outputs(ctx, out)
+    }
+    /// Initial values left open by the user, which a rest-state computation may set.
+    fn free_initial(&self) -> FreeInitial {
+        FreeInitial::default()
+    }
+    /// Set the initial gas state of a capacity (absolute p [Pa], T [K]).
+    fn set_initial_gas(&mut self, _p: f64, _t: f64) {}
+    /// Set the initial position [m] of an inertia, at rest.
+    fn set_initial_position(&mut self, _x: f64) {}
+    /// Facts to compare with other blocks, each with the index of the port it concerns.
+    fn facts(&self) -> Vec<(usize, Fact)> {
+        Vec::new()
     }
 }
 

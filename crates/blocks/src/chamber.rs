@@ -77,19 +77,19 @@ pub const PARAMS: &[ParamSpec] = &[
     ParamSpec::quantity("T0", dim::TEMPERATURE, Some(293.15), Range::Positive, "K", "initial temperature"),
 ];
 
-const PORTS_TANK: &[PortSpec] = &[
+pub const PORTS_TANK: &[PortSpec] = &[
     PortSpec::new("port", PortKind::PneumaticEffort, "gas inside the chamber"),
-    PortSpec::new("p", PortKind::SignalOut, "pressure [Pa]"),
-    PortSpec::new("T", PortKind::SignalOut, "temperature [K]"),
+    PortSpec::signal("p", PortKind::SignalOut, "Pa", "pressure"),
+    PortSpec::signal("T", PortKind::SignalOut, "K", "temperature"),
 ];
-const PORTS_CYLINDER: &[PortSpec] = &[
+pub const PORTS_CYLINDER: &[PortSpec] = &[
     PortSpec::new("port", PortKind::PneumaticEffort, "gas inside the chamber"),
     PortSpec::new("piston", PortKind::MechanicalForce, "piston face: force p*A, volume follows x"),
-    PortSpec::new("p", PortKind::SignalOut, "pressure [Pa]"),
-    PortSpec::new("T", PortKind::SignalOut, "temperature [K]"),
+    PortSpec::signal("p", PortKind::SignalOut, "Pa", "pressure"),
+    PortSpec::signal("T", PortKind::SignalOut, "K", "temperature"),
 ];
 const STATES: &[StateSpec] = &[StateSpec { name: "m", unit: "kg" }, StateSpec { name: "T", unit: "K" }];
-const OUTPUTS: &[OutputSpec] = &[
+pub const OUTPUTS: &[OutputSpec] = &[
     OutputSpec { name: "rho", unit: "kg/m3" },
     OutputSpec { name: "m", unit: "kg" },
     OutputSpec { name: "V", unit: "m3" },
@@ -113,6 +113,10 @@ pub struct Chamber {
     pub t_wall: f64,
     pub p0: f64,
     pub t0: f64,
+    /// Which of p0, T0 the user left to their defaults (a rest state may set them).
+    pub free: FreeInitial,
+    /// Bore and rod diameter [m] when the area was given that way.
+    pub diameters: Option<(f64, f64)>,
 }
 
 /// Time derivatives and diagnostics of a chamber at one instant.
@@ -154,6 +158,8 @@ impl Chamber {
             t_wall: p.get("T_wall"),
             p0: p.get("p0"),
             t0: p.get("T0"),
+            free: FreeInitial { pressure: !p.was_given("p0"), temperature: !p.was_given("T0"), position: false },
+            diameters: p.was_given("bore").then_some((bore, rod)),
         };
         if c.dead_volume <= 0.0 && c.area * c.length_at_zero <= 0.0 {
             return Err(crate::BlockError::invalid("dead_volume", "the chamber has no volume at x = 0: give dead_volume > 0"));
@@ -247,6 +253,29 @@ impl Block for Chamber {
         out[0] = init[0].abs().max(1e-12);
         out[1] = 300.0;
     }
+    fn free_initial(&self) -> FreeInitial {
+        self.free
+    }
+    fn facts(&self) -> Vec<(usize, Fact)> {
+        if self.area <= 0.0 {
+            return Vec::new();
+        }
+        let mut f = Vec::new();
+        if let Some((bore, rod)) = self.diameters {
+            f.push((1, Fact::Bore(bore)));
+            if rod > 0.0 {
+                f.push((1, Fact::RodDiameter(rod)));
+            }
+        }
+        if self.sigma < 0.0 && self.length_at_zero > 0.0 {
+            f.push((1, Fact::Stroke(self.length_at_zero)));
+        }
+        f
+    }
+    fn set_initial_gas(&mut self, p: f64, t: f64) {
+        self.p0 = p;
+        self.t0 = t;
+    }
     fn initial_states(&self, ctx: &InitCtx, out: &mut [f64]) {
         let x = self.position(ctx.mechanical).x;
         let rho = ctx.gas.density(self.p0, self.t0);
@@ -301,7 +330,18 @@ mod tests {
     use gas::{GasModel, IdealGas};
 
     fn cylinder(tau: f64) -> Chamber {
-        Chamber { dead_volume: 20e-6, area: 1.59e-3, sigma: 1.0, length_at_zero: 0.0, tau_thermal: tau, t_wall: 292.0, p0: 4e5, t0: 292.0 }
+        Chamber {
+            dead_volume: 20e-6,
+            area: 1.59e-3,
+            sigma: 1.0,
+            length_at_zero: 0.0,
+            tau_thermal: tau,
+            t_wall: 292.0,
+            p0: 4e5,
+            t0: 292.0,
+            free: FreeInitial::default(),
+            diameters: None,
+        }
     }
 
     fn state_at(c: &Chamber, gas: &dyn GasModel, p: f64, t: f64, x: f64) -> (f64, f64) {

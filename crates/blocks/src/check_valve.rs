@@ -35,8 +35,9 @@ pub const PARAMS: &[ParamSpec] = &[
     ParamSpec::quantity("cracking_pressure", dim::PRESSURE, Some(0.0), Range::NonNegative, "bar", "opening pressure difference"),
     ParamSpec::quantity("opening_range", dim::PRESSURE, Some(1000.0), Range::Positive, "bar", "pressure rise from cracking to fully open"),
 ];
-const PORTS: &[PortSpec] = &[PortSpec::new("a", PortKind::PneumaticFlow, "inlet"), PortSpec::new("b", PortKind::PneumaticFlow, "outlet")];
-const OUTPUTS: &[OutputSpec] = &[OutputSpec { name: "mdot", unit: "kg/s" }];
+pub const PORTS: &[PortSpec] =
+    &[PortSpec::new("a", PortKind::PneumaticFlow, "inlet"), PortSpec::new("b", PortKind::PneumaticFlow, "outlet")];
+pub const OUTPUTS: &[OutputSpec] = &[OutputSpec { name: "mdot", unit: "kg/s" }];
 
 /// One-way element shared by the check valve and the speed-control valve.
 #[derive(Debug, Clone, PartialEq)]

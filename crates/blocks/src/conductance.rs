@@ -47,8 +47,9 @@ pub const PARAMS: &[ParamSpec] = &[
         "port conduction G, Q_c = G (T_a - T_b)",
     ),
 ];
-const PORTS: &[PortSpec] = &[PortSpec::new("a", PortKind::PneumaticFlow, "side a"), PortSpec::new("b", PortKind::PneumaticFlow, "side b")];
-const OUTPUTS: &[OutputSpec] = &[OutputSpec { name: "mdot", unit: "kg/s" }];
+pub const PORTS: &[PortSpec] =
+    &[PortSpec::new("a", PortKind::PneumaticFlow, "side a"), PortSpec::new("b", PortKind::PneumaticFlow, "side b")];
+pub const OUTPUTS: &[OutputSpec] = &[OutputSpec { name: "mdot", unit: "kg/s" }];
 
 /// Build a flow characteristic from the standard parameter names with a prefix ("" or "check_").
 pub fn characteristic(p: &Params, c: &str, b: &str) -> Result<FlowCharacteristic, crate::BlockError> {

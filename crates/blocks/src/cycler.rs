@@ -34,9 +34,9 @@ pub const PARAMS: &[ParamSpec] = &[
     ParamSpec::quantity("switch_tolerance", dim::LENGTH, Some(1e-5), Range::Positive, "mm", "limit switches trip this close to the ends"),
     ParamSpec::quantity("start", dim::TIME, Some(0.0), Range::NonNegative, "s", "time of the first extend command"),
 ];
-const PORTS: &[PortSpec] = &[
-    PortSpec::new("x", PortKind::SignalIn, "piston position [m]"),
-    PortSpec::new("command", PortKind::SignalOut, "1 = extend, 0 = retract"),
+pub const PORTS: &[PortSpec] = &[
+    PortSpec::signal("x", PortKind::SignalIn, "m", "piston position"),
+    PortSpec::signal("command", PortKind::SignalOut, "1", "1 = extend, 0 = retract"),
 ];
 
 /// Where the cycler is in its cycle.
@@ -121,6 +121,13 @@ impl Block for Cycler {
     }
     fn signal_outputs(&self, _ctx: &Ctx, out: &mut [f64]) {
         out[0] = self.command();
+    }
+    /// At rest before the first extend command the valve is released.
+    fn rest_signal_outputs(&self, _ctx: &Ctx, out: &mut [f64]) {
+        out[0] = 0.0;
+    }
+    fn facts(&self) -> Vec<(usize, Fact)> {
+        vec![(0, Fact::SwitchPosition(self.stroke - self.tolerance)), (1, Fact::CommandLevels(vec![0.0, 1.0]))]
     }
     fn n_event_functions(&self) -> usize {
         1

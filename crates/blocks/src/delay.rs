@@ -31,9 +31,9 @@ pub const PARAMS: &[ParamSpec] = &[
     ParamSpec::quantity("delay", dim::TIME, None, Range::NonNegative, "ms", "transport delay"),
     ParamSpec::quantity("initial", dim::DIMENSIONLESS, Some(0.0), Range::Any, "", "output before the first change arrives"),
 ];
-const PORTS: &[PortSpec] = &[
-    PortSpec::new("in", PortKind::SignalIn, "signal to delay"),
-    PortSpec::new("out", PortKind::SignalOut, "the input delayed by `delay`"),
+pub const PORTS: &[PortSpec] = &[
+    PortSpec::signal("in", PortKind::SignalIn, "", "signal to delay (any unit)"),
+    PortSpec::signal("out", PortKind::SignalOut, "", "the input delayed by `delay` (its unit)"),
 ];
 const STATES: &[StateSpec] = &[StateSpec { name: "clock", unit: "s" }];
 
@@ -88,6 +88,10 @@ impl Block for Delay {
     }
     fn feedthrough(&self) -> bool {
         self.delay <= 0.0
+    }
+    /// At rest the input has held its value for ever, so it has come through.
+    fn rest_signal_outputs(&self, ctx: &Ctx, out: &mut [f64]) {
+        out[0] = ctx.signals[0];
     }
     fn derivatives(&self, ctx: &Ctx, _b: &Balances, out: &mut [f64]) {
         if let Some(d) = out.first_mut() {

@@ -76,27 +76,27 @@ pub const PARAMS_5_2: &[ParamSpec] = valve_params!(EXHAUST_C, EXHAUST_B);
 pub const PARAMS_3_2: &[ParamSpec] = valve_params!(EXHAUST_C, EXHAUST_B, NORMALLY_OPEN);
 pub const PARAMS_2_2: &[ParamSpec] = valve_params!(NORMALLY_OPEN);
 
-const PORTS_5_2: &[PortSpec] = &[
+pub const PORTS_5_2: &[PortSpec] = &[
     PortSpec::new("P", PortKind::PneumaticFlow, "supply"),
     PortSpec::new("A", PortKind::PneumaticFlow, "working port A (actuated: from P)"),
     PortSpec::new("B", PortKind::PneumaticFlow, "working port B (rest: from P)"),
     PortSpec::new("EA", PortKind::PneumaticFlow, "exhaust of A"),
     PortSpec::new("EB", PortKind::PneumaticFlow, "exhaust of B"),
-    PortSpec::new("command", PortKind::SignalIn, "1 = actuated, 0 = rest"),
+    PortSpec::signal("command", PortKind::SignalIn, "1", "1 = actuated, 0 = rest"),
 ];
-const PORTS_3_2: &[PortSpec] = &[
+pub const PORTS_3_2: &[PortSpec] = &[
     PortSpec::new("P", PortKind::PneumaticFlow, "supply"),
     PortSpec::new("A", PortKind::PneumaticFlow, "working port"),
     PortSpec::new("E", PortKind::PneumaticFlow, "exhaust"),
-    PortSpec::new("command", PortKind::SignalIn, "1 = actuated, 0 = rest"),
+    PortSpec::signal("command", PortKind::SignalIn, "1", "1 = actuated, 0 = rest"),
 ];
-const PORTS_2_2: &[PortSpec] = &[
+pub const PORTS_2_2: &[PortSpec] = &[
     PortSpec::new("a", PortKind::PneumaticFlow, "side a"),
     PortSpec::new("b", PortKind::PneumaticFlow, "side b"),
-    PortSpec::new("command", PortKind::SignalIn, "1 = actuated, 0 = rest"),
+    PortSpec::signal("command", PortKind::SignalIn, "1", "1 = actuated, 0 = rest"),
 ];
 const SPOOL_STATE: &[StateSpec] = &[StateSpec { name: "spool", unit: "1" }];
-const OUTPUTS: &[OutputSpec] = &[OutputSpec { name: "spool", unit: "1" }];
+pub const OUTPUTS: &[OutputSpec] = &[OutputSpec { name: "spool", unit: "1" }];
 
 /// One flow path between two pneumatic ports (indices among pneumatic ports).
 #[derive(Debug, Clone, PartialEq)]
@@ -188,6 +188,10 @@ impl Block for DirectionalValve {
     }
     fn ports(&self) -> &[PortSpec] {
         self.ports
+    }
+    fn facts(&self) -> Vec<(usize, Fact)> {
+        let command = self.ports.iter().position(|p| p.kind == PortKind::SignalIn).unwrap_or(0);
+        vec![(command, Fact::CommandThresholds { released: 0.0, actuated: 1.0 })]
     }
     fn states(&self) -> &[StateSpec] {
         if self.spool_tau > 0.0 {

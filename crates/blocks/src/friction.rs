@@ -49,12 +49,12 @@ pub const PARAMS: &[ParamSpec] = &[
     ),
 ];
 
-const PORTS: &[PortSpec] = &[
+pub const PORTS: &[PortSpec] = &[
     PortSpec::new("rod", PortKind::MechanicalForce, "friction on the piston node"),
-    PortSpec::new("p1", PortKind::SignalIn, "head-side pressure [Pa]"),
-    PortSpec::new("p2", PortKind::SignalIn, "rod-side pressure [Pa]"),
+    PortSpec::signal("p1", PortKind::SignalIn, "Pa", "head-side pressure"),
+    PortSpec::signal("p2", PortKind::SignalIn, "Pa", "rod-side pressure"),
 ];
-const OUTPUTS: &[OutputSpec] = &[OutputSpec { name: "F_coulomb", unit: "N" }, OutputSpec { name: "F_sliding", unit: "N" }];
+pub const OUTPUTS: &[OutputSpec] = &[OutputSpec { name: "F_coulomb", unit: "N" }, OutputSpec { name: "F_sliding", unit: "N" }];
 
 #[derive(Debug, Clone, PartialEq)]
 pub struct Friction {

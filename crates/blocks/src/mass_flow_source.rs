@@ -20,7 +20,7 @@ pub const PARAMS: &[ParamSpec] = &[
     ParamSpec::quantity("mdot", dim::MASS_FLOW, None, Range::Any, "g/s", "mass flow into the node"),
     ParamSpec::quantity("T", dim::TEMPERATURE, Some(293.15), Range::Positive, "K", "temperature of the delivered gas"),
 ];
-const PORTS: &[PortSpec] = &[PortSpec::new("port", PortKind::PneumaticFlow, "delivered flow")];
+pub const PORTS: &[PortSpec] = &[PortSpec::new("port", PortKind::PneumaticFlow, "delivered flow")];
 
 #[derive(Debug, Clone, PartialEq)]
 pub struct MassFlowSource {

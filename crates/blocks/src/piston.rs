@@ -50,13 +50,13 @@ pub const PARAMS: &[ParamSpec] = &[
     ParamSpec::quantity("v0", dim::VELOCITY, Some(0.0), Range::Any, "m/s", "initial velocity"),
 ];
 
-const PORTS: &[PortSpec] = &[
+pub const PORTS: &[PortSpec] = &[
     PortSpec::new("rod", PortKind::MechanicalInertia, "the moving mass"),
-    PortSpec::new("x", PortKind::SignalOut, "position [m]"),
-    PortSpec::new("v", PortKind::SignalOut, "velocity [m/s]"),
+    PortSpec::signal("x", PortKind::SignalOut, "m", "position"),
+    PortSpec::signal("v", PortKind::SignalOut, "m/s", "velocity"),
 ];
 const STATES: &[StateSpec] = &[StateSpec { name: "x", unit: "m" }, StateSpec { name: "v", unit: "m/s" }];
-const OUTPUTS: &[OutputSpec] = &[OutputSpec { name: "a", unit: "m/s2" }];
+pub const OUTPUTS: &[OutputSpec] = &[OutputSpec { name: "a", unit: "m/s2" }];
 
 #[derive(Debug, Clone, PartialEq)]
 pub struct Piston {
@@ -68,6 +68,10 @@ pub struct Piston {
     pub restitution: f64,
     pub x0: f64,
     pub v0: f64,
+    /// Whether x0 (and v0) were left to their defaults (a rest state may set x0).
+    pub free_position: bool,
+    /// Rod diameter [m], when the rod area was given that way.
+    pub rod_diameter: Option<f64>,
 }
 
 impl Piston {
@@ -90,6 +94,8 @@ impl Piston {
             restitution: p.get("restitution"),
             x0: p.get("x0"),
             v0: p.get("v0"),
+            free_position: !p.was_given("x0") && !p.was_given("v0"),
+            rod_diameter: p.was_given("rod_diameter").then(|| p.get("rod_diameter")),
         };
         if s.x0 < 0.0 || s.x0 > s.stroke {
             return Err(crate::BlockError::invalid("x0", "must lie between 0 and the stroke"));
@@ -111,6 +117,20 @@ impl Block for Piston {
     fn state_scales(&self, _init: &[f64], out: &mut [f64]) {
         out[0] = self.stroke;
         out[1] = 1.0;
+    }
+    fn free_initial(&self) -> FreeInitial {
+        FreeInitial { position: self.free_position, ..FreeInitial::default() }
+    }
+    fn set_initial_position(&mut self, x: f64) {
+        self.x0 = x.clamp(0.0, self.stroke);
+        self.v0 = 0.0;
+    }
+    fn facts(&self) -> Vec<(usize, Fact)> {
+        let mut f = vec![(0, Fact::Stroke(self.stroke))];
+        if let Some(d) = self.rod_diameter {
+            f.push((0, Fact::RodDiameter(d)));
+        }
+        f
     }
     fn initial_states(&self, _ctx: &InitCtx, out: &mut [f64]) {
         out[0] = self.x0;

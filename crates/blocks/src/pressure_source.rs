@@ -28,7 +28,7 @@ pub const ATMOSPHERE_PARAMS: &[ParamSpec] = &[
     ParamSpec::quantity("p", dim::PRESSURE, Some(101_325.0), Range::Positive, "bar", "ambient pressure"),
     ParamSpec::quantity("T", dim::TEMPERATURE, Some(293.15), Range::Positive, "K", "ambient temperature"),
 ];
-const PORTS: &[PortSpec] = &[PortSpec::new("port", PortKind::PneumaticEffort, "gas at the source state")];
+pub const PORTS: &[PortSpec] = &[PortSpec::new("port", PortKind::PneumaticEffort, "gas at the source state")];
 
 #[derive(Debug, Clone, PartialEq)]
 pub struct PressureSource {
@@ -52,6 +52,9 @@ impl Block for PressureSource {
     }
     fn effort(&self, ctx: &Ctx, out: &mut [GasState]) {
         out[0] = ctx.gas.state_pt(self.p, self.t);
+    }
+    fn facts(&self) -> Vec<(usize, Fact)> {
+        vec![(0, if self.name == "atmosphere" { Fact::AmbientPressure(self.p) } else { Fact::SupplyPressure(self.p) })]
     }
 }
 

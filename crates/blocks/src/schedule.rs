@@ -22,7 +22,7 @@ pub const PARAMS: &[ParamSpec] = &[
     ParamSpec::list("values", dim::DIMENSIONLESS, Range::Any, "", "command after each instant"),
     ParamSpec::quantity("initial", dim::DIMENSIONLESS, Some(0.0), Range::Any, "", "command before the first instant"),
 ];
-const PORTS: &[PortSpec] = &[PortSpec::new("command", PortKind::SignalOut, "command value [1]")];
+pub const PORTS: &[PortSpec] = &[PortSpec::signal("command", PortKind::SignalOut, "1", "command value")];
 
 #[derive(Debug, Clone, PartialEq)]
 pub struct Schedule {
@@ -64,6 +64,15 @@ impl Block for Schedule {
     }
     fn signal_outputs(&self, ctx: &Ctx, out: &mut [f64]) {
         out[0] = self.value(ctx.t);
+    }
+    /// Before t = 0 the schedule holds its `initial` value.
+    fn rest_signal_outputs(&self, _ctx: &Ctx, out: &mut [f64]) {
+        out[0] = self.initial;
+    }
+    fn facts(&self) -> Vec<(usize, Fact)> {
+        let mut levels = self.values.clone();
+        levels.push(self.initial);
+        vec![(0, Fact::CommandLevels(levels))]
     }
     fn next_time_event(&self, t: f64) -> Option<f64> {
         self.times.iter().copied().find(|&ti| ti > t)

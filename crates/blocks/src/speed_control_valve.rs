@@ -49,11 +49,11 @@ pub const PARAMS: &[ParamSpec] = &[
     ParamSpec::quantity("T_ref", dim::TEMPERATURE, Some(293.15), Range::Positive, "K", "reference temperature"),
     ParamSpec::quantity("rho_ref", dim::DENSITY, Some(1.185), Range::Positive, "kg/m3", "reference density"),
 ];
-const PORTS: &[PortSpec] = &[
+pub const PORTS: &[PortSpec] = &[
     PortSpec::new("a", PortKind::PneumaticFlow, "free-flow inlet (valve side in meter-out)"),
     PortSpec::new("b", PortKind::PneumaticFlow, "free-flow outlet (cylinder side in meter-out)"),
 ];
-const OUTPUTS: &[OutputSpec] = &[
+pub const OUTPUTS: &[OutputSpec] = &[
     OutputSpec { name: "mdot", unit: "kg/s" },
     OutputSpec { name: "mdot_throttle", unit: "kg/s" },
     OutputSpec { name: "mdot_check", unit: "kg/s" },

@@ -21,8 +21,8 @@ pub const PARAMS: &[ParamSpec] = &[
     ParamSpec::quantity("preload", dim::FORCE, Some(0.0), Range::Any, "N", "force at x = 0"),
     ParamSpec::choice("direction", &["retract", "extend"], 0, "direction the spring pushes"),
 ];
-const PORTS: &[PortSpec] = &[PortSpec::new("rod", PortKind::MechanicalForce, "spring end on the piston node")];
-const OUTPUTS: &[OutputSpec] = &[OutputSpec { name: "F", unit: "N" }];
+pub const PORTS: &[PortSpec] = &[PortSpec::new("rod", PortKind::MechanicalForce, "spring end on the piston node")];
+pub const OUTPUTS: &[OutputSpec] = &[OutputSpec { name: "F", unit: "N" }];
 
 #[derive(Debug, Clone, PartialEq)]
 pub struct Spring {

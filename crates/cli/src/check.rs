@@ -23,19 +23,61 @@ pub fn run(a: &CheckArgs) -> Result<(), CliError> {
     let flat = flat_netlist(&a.model, &a.sets)?;
     let circuit = graph::build(&flat)?;
     solve::options_from(&circuit.simulation)?;
-    if let Some(path) = &a.dot {
-        write_atomic(path, graph::report::dot(&circuit).as_bytes())?;
+    crate::output::print_warnings(&circuit.warnings);
+    let dot = a.dot.as_ref().map(|_| graph::report::dot(&circuit));
+    let mut text = graph::report::causality_table(&circuit);
+    text.push_str(&graph::report::parameter_table(&circuit));
+    let rest = circuit.simulation.initial == graph::netlist::InitialMode::Rest;
+    let mut model = solve::Model::new(circuit);
+    if rest {
+        let report = solve::rest::apply(&mut model).map_err(|e| CliError::Solve(Box::new(e.into())))?;
+        let _ = writeln!(text, "\ninitial state at rest ({} values):", report.values.len());
+        for v in &report.values {
+            let shown = match v.param {
+                "p0" => format!("{:.6} bar", v.value / 1e5),
+                "T0" => format!("{:.2} K", v.value),
+                _ => format!("{:.3} mm", v.value * 1e3),
+            };
+            let _ = writeln!(text, "  {:<22} {:<18} {}", format!("{}.{}", v.id, v.param), shown, v.reason);
+        }
     }
-    print!("{}", graph::report::causality_table(&circuit));
+    if let (Some(path), Some(dot)) = (&a.dot, dot) {
+        write_atomic(path, dot.as_bytes())?;
+    }
+    print!("{text}");
     println!("\nok: {} is a valid circuit", a.model.display());
     Ok(())
 }
 
-/// All block types with their parameters (for `pneumo blocks`).
+/// All block types with their ports, recorded outputs and parameters (for `pneumo blocks`).
 pub fn block_listing() -> String {
+    use blocks::block::{Domain, PortKind};
     let mut s = String::new();
     for t in blocks::registry::TYPES {
         let _ = writeln!(s, "{} — {}", t.name, t.doc);
+        let _ = writeln!(s, "  ports:");
+        for p in t.ports {
+            let role = match p.kind {
+                PortKind::PneumaticEffort => "pneumatic, imposes p and T",
+                PortKind::PneumaticFlow => "pneumatic, flow",
+                PortKind::MechanicalInertia => "mechanical, moving mass",
+                PortKind::MechanicalForce => "mechanical, force",
+                PortKind::SignalIn => "signal in",
+                PortKind::SignalOut => "signal out",
+            };
+            let unit = match p.kind.domain() {
+                Domain::Signal if p.unit.is_empty() => "[as its input]".to_string(),
+                Domain::Signal => format!("[{}]", p.unit),
+                Domain::Pneumatic => "[Pa, K; kg/s, W]".to_string(),
+                Domain::Mechanical => "[m, m/s; N]".to_string(),
+            };
+            let _ = writeln!(s, "    {:<20} {:<28} {:<18} {}", p.name, role, unit, p.doc);
+        }
+        if !t.outputs.is_empty() {
+            let outs: Vec<String> = t.outputs.iter().map(|o| format!("{} [{}]", o.name, o.unit)).collect();
+            let _ = writeln!(s, "  recorded: {}", outs.join(", "));
+        }
+        let _ = writeln!(s, "  parameters:");
         for p in t.params {
             let default = match (p.default, p.kind) {
                 (None, _) => "required".to_string(),

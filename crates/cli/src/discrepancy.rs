@@ -162,12 +162,41 @@ fn text_summary(o: &Outcome) -> String {
 // ---------------------------------------------------------------- netlists
 
 fn netlist_json(flat: &graph::FlatNetlist, description: String) -> Result<String, CliError> {
+    // Expressions written inside subsystems refer to names of their scope;
+    // in a flat file they become their values. Ids of expanded subsystems
+    // ("cyl.head") are written with '_' ("cyl_head"), as file ids cannot
+    // contain '.'.
+    let (concrete, _) = graph::params::concrete(flat)?;
+    let rename = |id: &str| id.replace('.', "_");
+    let port = |r: &str| match graph::netlist::split_ref(r) {
+        Some((id, p)) => format!("{}.{p}", rename(id)),
+        None => r.to_string(),
+    };
+    let components = concrete
+        .components
+        .iter()
+        .map(|c| {
+            let mut c = c.clone();
+            c.id = rename(&c.id);
+            c
+        })
+        .collect();
+    let parameters = flat
+        .parameters
+        .iter()
+        .filter(|p| !p.name.contains('.'))
+        .map(|p| {
+            let decl = graph::netlist::ParameterDecl::Full { value: p.value.clone(), description: p.description.clone() };
+            (p.name.clone(), decl)
+        })
+        .collect();
     let n = graph::Netlist {
         name: Some(flat.name.clone()),
         description: Some(description),
         gas: flat.gas.clone(),
-        components: flat.components.clone(),
-        connections: flat.connections.iter().map(|(a, b)| graph::netlist::Connection::Pair([a.clone(), b.clone()])).collect(),
+        parameters,
+        components,
+        connections: concrete.connections.iter().map(|(a, b)| graph::netlist::Connection::Pair([port(a), port(b)])).collect(),
         simulation: flat.simulation.clone(),
         interface: None,
     };

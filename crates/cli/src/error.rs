@@ -12,9 +12,25 @@ pub enum CliError {
     Usage(String),
     #[error("{0}")]
     Data(String),
+    /// The run reached its end time before doing what it was asked (its
+    /// outputs were written); exit status [`CliError::EXIT_INCOMPLETE`].
+    #[error("{0}")]
+    Incomplete(String),
 }
 
 impl CliError {
+    /// Exit status of a run that ended before completing its cycles.
+    pub const EXIT_INCOMPLETE: u8 = 3;
+
+    /// Process exit status for this error: 3 for an incomplete run, 1 otherwise
+    /// (2 is clap's, for usage errors).
+    pub fn exit_code(&self) -> u8 {
+        match self {
+            CliError::Incomplete(_) => Self::EXIT_INCOMPLETE,
+            _ => 1,
+        }
+    }
+
     pub fn io(path: &std::path::Path, e: impl std::fmt::Display) -> Self {
         CliError::Io { path: path.display().to_string(), message: e.to_string() }
     }

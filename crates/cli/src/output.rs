@@ -65,12 +65,16 @@ pub fn select_columns(result: &SimResult, wanted: &[String]) -> Result<Vec<usize
 }
 
 /// CSV text: header `t,<id>.<signal>...` in SI units; undefined values are empty cells.
-pub fn csv(result: &SimResult, columns: &[usize]) -> String {
+pub fn csv(result: &SimResult, columns: &[usize], header_units: bool) -> String {
     let mut s = String::with_capacity(result.rows.len() * (columns.len() + 1) * 14);
-    s.push('t');
+    s.push_str(if header_units { "t [s]" } else { "t" });
     for &c in columns {
         s.push(',');
         s.push_str(&result.columns[c]);
+        if header_units {
+            let unit = if result.units[c].is_empty() { "1" } else { &result.units[c] };
+            s.push_str(&format!(" [{unit}]"));
+        }
     }
     s.push('\n');
     for (t, row) in result.times.iter().zip(&result.rows) {
@@ -84,6 +88,25 @@ pub fn csv(result: &SimResult, columns: &[usize]) -> String {
         s.push('\n');
     }
     s
+}
+
+/// A CSV header cell "head.p [Pa]" as ("head.p", Some("Pa")); "head.p" as ("head.p", None).
+pub fn split_header(cell: &str) -> (String, Option<String>) {
+    let cell = cell.trim();
+    match cell.strip_suffix(']').and_then(|c| c.rsplit_once(" [")) {
+        Some((name, unit)) => (name.trim().to_string(), Some(unit.trim().to_string())),
+        None => (cell.to_string(), None),
+    }
+}
+
+/// Print warnings, one line each on stderr, without repeating a line.
+pub fn print_warnings(warnings: &[graph::Warning]) {
+    let mut seen = std::collections::BTreeSet::new();
+    for w in warnings {
+        if seen.insert(w) {
+            eprintln!("warning: {w}");
+        }
+    }
 }
 
 /// Summary JSON: cycles, signal ranges, balance residuals, solver statistics.
@@ -107,10 +130,22 @@ pub fn summary(result: &SimResult, model_name: &str, columns: &[usize]) -> serde
         }
     }
     let b = &result.balance;
+    let rest: Vec<_> =
+        result.rest.values.iter().map(|v| json!({"component": v.id, "param": v.param, "value": v.value, "reason": v.reason})).collect();
+    let masses: Vec<_> = result
+        .final_state
+        .masses
+        .iter()
+        .map(|m| json!({"id": m.id, "mode": m.mode, "x_m": m.x, "v_m_s": m.v, "applied_N": m.applied, "breakaway_N": m.breakaway}))
+        .collect();
+    let pressures: serde_json::Map<String, serde_json::Value> =
+        result.final_state.pressures.iter().map(|(id, p)| (format!("{id}.p"), json!(p))).collect();
     json!({
         "model": model_name,
         "t_final_s": result.t_final,
         "cycles": cycles,
+        "initial_rest_state": rest,
+        "final_state": {"masses": masses, "pressures_Pa": pressures},
         "signals": signals,
         "conservation": {
             "mass_initial_kg": b.mass_initial, "mass_final_kg": b.mass_final, "mass_in_kg": b.mass_in,

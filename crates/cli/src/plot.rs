@@ -253,7 +253,8 @@ fn quantity_of_unit(si: &str) -> Quantity {
     }
 }
 
-/// SI unit of a result column from its signal name (CSV headers carry no units).
+/// SI unit of a result column from its signal name, for CSV files whose
+/// header carries no units (written without `--header-units`).
 fn unit_of_signal(column: &str) -> &'static str {
     let signal = column.rsplit('.').next().unwrap_or(column);
     match signal {
@@ -337,6 +338,8 @@ type Samples = Vec<Option<f64>>;
 struct Table {
     path: PathBuf,
     columns: Vec<String>,
+    /// Unit written in a header cell ("head.p [Pa]"), if any.
+    units: Vec<Option<String>>,
     rows: Vec<Vec<String>>,
     lines: Vec<u64>,
 }
@@ -348,7 +351,8 @@ fn read_table(path: &Path) -> Result<Table, CliError> {
         Some(pos) => CliError::Data(format!("{}: line {}: {}", path.display(), pos.line(), csv_message(&e))),
         None => CliError::Data(format!("{}: {}", path.display(), csv_message(&e))),
     };
-    let columns: Vec<String> = reader.headers().map_err(csv_error)?.iter().map(str::to_string).collect();
+    let header: Vec<(String, Option<String>)> = reader.headers().map_err(csv_error)?.iter().map(crate::output::split_header).collect();
+    let (columns, units): (Vec<String>, Vec<Option<String>>) = header.into_iter().unzip();
     if columns.iter().all(|c| c.is_empty()) {
         return Err(CliError::Data(format!("{}: line 1: no header row", path.display())));
     }
@@ -359,7 +363,7 @@ fn read_table(path: &Path) -> Result<Table, CliError> {
         lines.push(record.position().map(|p| p.line()).unwrap_or(0));
         rows.push(record.iter().map(str::to_string).collect());
     }
-    Ok(Table { path: path.to_path_buf(), columns, rows, lines })
+    Ok(Table { path: path.to_path_buf(), columns, units, rows, lines })
 }
 
 /// The csv crate's message without its own position prefix (we add file and line).
@@ -376,6 +380,14 @@ fn csv_message(e: &csv::Error) -> String {
 impl Table {
     fn name(&self) -> String {
         self.path.display().to_string()
+    }
+
+    /// SI unit of a column: written in its header, or known from its signal name.
+    fn unit(&self, col: usize) -> &str {
+        match self.units.get(col) {
+            Some(Some(u)) => u,
+            _ => unit_of_signal(&self.columns[col]),
+        }
     }
 
     fn stem(&self) -> String {
@@ -449,7 +461,10 @@ fn overlay_figure(tables: &[Table], signals: &[String], x: Option<&str>, normali
     if signals.is_empty() {
         return Err(CliError::Data(format!("{}: no signal columns to plot", first.name())));
     }
-    let x_q = if x.is_some() { quantity_of_unit(unit_of_signal(x_name)) } else { Quantity::new("time", "time", "s", "s") };
+    let x_q = match x {
+        Some(_) => quantity_of_unit(first.unit(first.column(x_name)?)),
+        None => Quantity::new("time", "time", "s", "s"),
+    };
     let stems: Vec<String> = tables.iter().map(Table::stem).collect();
     let unique_stems = stems.iter().enumerate().all(|(i, s)| !stems[..i].contains(s));
     let mut items = Vec::new();
@@ -458,7 +473,7 @@ fn overlay_figure(tables: &[Table], signals: &[String], x: Option<&str>, normali
         for s in &signals {
             let yc = table.column(s)?;
             let (mut xs, mut ys) = table.pair(xc, yc)?;
-            let y_q = quantity_of_unit(unit_of_signal(s));
+            let y_q = quantity_of_unit(table.unit(yc));
             if normalize {
                 if x.is_some() {
                     normalise(&mut xs);
@@ -868,6 +883,8 @@ mod tests {
             })
             .collect();
         solve::SimResult {
+            rest: Default::default(),
+            final_state: Default::default(),
             columns: vec!["head.p".into(), "rod.p".into(), "head.T".into(), "piston.x".into(), "head.n".into()],
             units: vec!["Pa".into(), "Pa".into(), "K".into(), "m".into(), "1".into()],
             times,

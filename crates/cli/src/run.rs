@@ -16,6 +16,9 @@ pub struct RunSpec {
 pub struct Run {
     pub name: String,
     pub result: solve::SimResult,
+    /// Why the run did less than asked (cycles not completed by the end
+    /// time), with where the actuator stalled; its results are still valid.
+    pub incomplete: Option<String>,
 }
 
 /// Run a netlist already loaded and expanded (`spec.sets` are
@@ -30,6 +33,7 @@ pub struct Prepared {
     pub outputs: Vec<String>,
     pub model: solve::Model,
     pub opts: solve::SimOptions,
+    pub warnings: Vec<graph::Warning>,
 }
 
 /// Apply overrides, build the circuit and settle the run settings.
@@ -57,20 +61,22 @@ pub fn prepare(mut flat: FlatNetlist, spec: &RunSpec) -> Result<Prepared, CliErr
     }
     let outputs = circuit.simulation.outputs.clone();
     let name = circuit.name.clone();
-    Ok(Prepared { name, outputs, model: solve::Model::new(circuit), opts })
+    let warnings = circuit.warnings.clone();
+    Ok(Prepared { name, outputs, model: solve::Model::new(circuit), opts, warnings })
 }
 
-/// Run a prepared model; a run that counts cycles must complete them all.
+/// Run a prepared model. A run that counts cycles and reaches its end time
+/// first is still a result; `incomplete` then says where it stalled.
 pub fn execute(mut p: Prepared) -> Result<Run, CliError> {
     let result = solve::simulate(&mut p.model, &p.opts)?;
-    if let Some(n) = p.opts.cycles {
-        if (result.cycles.len() as u64) < n {
-            return Err(CliError::Data(format!(
-                "only {} of {n} cycles completed by t = {:.3} s (the actuator stalled or the end time is too short)",
-                result.cycles.len(),
-                result.t_final
-            )));
-        }
-    }
-    Ok(Run { name: p.name, result })
+    let incomplete = match p.opts.cycles {
+        Some(n) if (result.cycles.len() as u64) < n => Some(format!(
+            "only {} of {n} cycles completed by t = {:.3} s: {}",
+            result.cycles.len(),
+            result.t_final,
+            result.final_state.describe()
+        )),
+        _ => None,
+    };
+    Ok(Run { name: p.name, result, incomplete })
 }

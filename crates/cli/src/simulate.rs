@@ -28,6 +28,9 @@ pub struct SimulateArgs {
     /// Plot the written signals (PNG or SVG by extension).
     #[arg(long, value_name = "FILE.png|FILE.svg")]
     pub plot: Option<std::path::PathBuf>,
+    /// Write each column's SI unit in the CSV header ("head.p [Pa]"), as pandas users like it.
+    #[arg(long = "header-units")]
+    pub header_units: bool,
     /// Signals to write (default: the netlist's outputs, or all).
     #[arg(long = "signals", value_delimiter = ',')]
     pub signals: Vec<String>,
@@ -42,12 +45,19 @@ pub fn run(a: &SimulateArgs) -> Result<(), CliError> {
     if let Some(bad) = wanted.iter().find(|w| !names.contains(w)) {
         return Err(CliError::Usage(format!("unknown signal \"{bad}\" (available: {})", names.join(", "))));
     }
+    crate::output::print_warnings(&prepared.warnings);
     let r = execute(prepared)?;
     let columns = select_columns(&r.result, &wanted)?;
     let all: Vec<usize> = (0..r.result.columns.len()).collect();
     // build everything before writing anything
-    let csv_text = a.out.as_ref().map(|_| csv(&r.result, &columns));
-    let summary_text = a.summary.as_ref().map(|_| serde_json::to_string_pretty(&summary(&r.result, &r.name, &all)).unwrap_or_default());
+    let csv_text = a.out.as_ref().map(|_| csv(&r.result, &columns, a.header_units));
+    let summary_text = a.summary.as_ref().map(|_| {
+        let mut s = summary(&r.result, &r.name, &all);
+        if let Some(why) = &r.incomplete {
+            s["incomplete"] = serde_json::json!(why);
+        }
+        serde_json::to_string_pretty(&s).unwrap_or_default()
+    });
     let plot_bytes = match &a.plot {
         Some(path) => Some(crate::plot::traces_image(&r.result, &columns, path)?),
         None => None,
@@ -69,5 +79,8 @@ pub fn run(a: &SimulateArgs) -> Result<(), CliError> {
         "t = {:.4} s, {} steps ({} rejected), {} evaluations, mass balance residual {:.1e}, energy residual {:.1e}",
         res.t_final, res.stats.steps, res.stats.rejected, res.rhs_evaluations, res.balance.mass_residual, res.balance.energy_residual
     );
-    Ok(())
+    match r.incomplete {
+        Some(why) => Err(CliError::Incomplete(why)),
+        None => Ok(()),
+    }
 }

@@ -276,7 +276,7 @@ fn run_case(base: &FlatNetlist, sets: &[String], axes: &[Axis], spec: &RunSpec, 
                     (range.map(|r| r.0), range.map(|r| r.1))
                 })
                 .collect();
-            Outcome { index, cycles, temps, error: None }
+            Outcome { index, cycles, temps, error: run.incomplete.clone() }
         }
         Err(e) => {
             let msg = e.to_string().split_whitespace().collect::<Vec<_>>().join(" ");

@@ -81,6 +81,10 @@ pub struct Circuit {
     pub simulation: crate::netlist::Simulation,
     /// Component graph (edges = connections), for reports and Graphviz.
     pub graph: DiGraph<String, String>,
+    /// Every parameter value, resolved (for `pneumo check` and tools).
+    pub resolved: crate::params::Resolved,
+    /// Questionable input found while building, one line each.
+    pub warnings: Vec<crate::Warning>,
 }
 
 impl Circuit {
@@ -107,11 +111,9 @@ pub fn gas_model(choice: &crate::netlist::GasChoice) -> Arc<dyn GasModel> {
     }
 }
 
+/// Ids after expansion: user ids joined by '.' (`cyl.head`).
 fn valid_id(id: &str) -> bool {
-    !id.is_empty()
-        && id.chars().all(|c| c.is_ascii_alphanumeric() || c == '_' || c == '-' || c == '.')
-        && !id.starts_with('.')
-        && !id.ends_with('.')
+    id.split('.').all(|part| !part.is_empty() && part.chars().all(|c| c.is_ascii_alphanumeric() || c == '_' || c == '-'))
 }
 
 struct UnionFind(Vec<usize>);
@@ -129,14 +131,25 @@ impl UnionFind {
     }
 }
 
-/// Build blocks, wire them, and assign causality.
+/// Resolve parameters and expressions, then build blocks, wire them, and
+/// assign causality.
 pub fn build(flat: &FlatNetlist) -> Result<Circuit, GraphError> {
+    let (concrete, resolved) = crate::params::concrete(flat)?;
+    let mut circuit = build_concrete(&concrete)?;
+    circuit.warnings = resolved.warnings.clone();
+    circuit.warnings.extend(crate::consistency::check(&circuit));
+    circuit.resolved = resolved;
+    Ok(circuit)
+}
+
+/// Build from a netlist whose values are all literals.
+fn build_concrete(flat: &FlatNetlist) -> Result<Circuit, GraphError> {
     // 1. ids and blocks
     let mut seen = BTreeMap::new();
     let mut instances = Vec::new();
     for c in &flat.components {
         if !valid_id(&c.id) {
-            return Err(GraphError::BadId { id: c.id.clone() });
+            return Err(GraphError::BadId { file: c.origin.clone(), id: c.id.clone() });
         }
         if seen.insert(c.id.clone(), ()).is_some() {
             return Err(GraphError::DuplicateId { id: c.id.clone() });
@@ -299,6 +312,8 @@ pub fn build(flat: &FlatNetlist) -> Result<Circuit, GraphError> {
         signal_order,
         simulation: flat.simulation.clone(),
         graph,
+        resolved: Default::default(),
+        warnings: Vec::new(),
     })
 }
 

@@ -7,15 +7,35 @@
 //! `cyl.piston`, ...; its exposed ports `cyl.head_port` are rewritten to the
 //! inner ports they stand for.
 
-use crate::netlist::{split_ref, Component, GasModelName, Netlist, Simulation, Species, Value};
+use crate::netlist::{split_ref, Component, GasModelName, InitialMode, Netlist, Simulation, Species, Value};
 use crate::GraphError;
 use std::collections::BTreeMap;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 /// Source of netlist text.
 pub trait Loader {
     /// Read the file at `path` (already resolved against the including netlist).
     fn read(&self, path: &Path) -> Result<String, String>;
+}
+
+/// A named parameter after expansion: top-level (`bore`) or of a subsystem
+/// instance (`cyl.bore`).
+#[derive(Debug, Clone, PartialEq)]
+pub struct FlatParameter {
+    /// Full name (`bore`, `cyl.bore`).
+    pub name: String,
+    /// Number, text with unit, or expression.
+    pub value: Value,
+    pub description: Option<String>,
+    /// Scope in which the names of an expression value are looked up
+    /// ("" = top level, "cyl" = inside instance `cyl`).
+    pub scope: String,
+    /// File that declared it.
+    pub origin: String,
+    /// Dimension and unit of the value the file gave it, when that is a
+    /// literal ("45 mm"): a plain-number override keeps this dimension.
+    pub declared_dim: Option<units::Dimension>,
+    pub declared_unit: String,
 }
 
 /// A circuit with subsystems expanded.
@@ -27,10 +47,30 @@ pub struct FlatNetlist {
     /// (from, to) port references.
     pub connections: Vec<(String, String)>,
     pub simulation: Simulation,
+    /// Named parameters (top level and of every subsystem instance).
+    pub parameters: Vec<FlatParameter>,
+    /// Interface parameters of subsystem instances: `cyl.T0` → the inner
+    /// `id.param` it sets (`cyl.head.T0`, `cyl.rod.T0`).
+    pub aliases: BTreeMap<String, Vec<String>>,
+    /// File of the top-level netlist.
+    pub origin: String,
 }
+
+impl FlatNetlist {
+    pub fn parameter(&self, name: &str) -> Option<&FlatParameter> {
+        self.parameters.iter().find(|p| p.name == name)
+    }
+    pub fn component(&self, id: &str) -> Option<&Component> {
+        self.components.iter().find(|c| c.id == id)
+    }
+}
+
+/// Deepest nesting of subsystems.
+pub const MAX_NESTING: usize = 16;
 
 /// Parse netlist text; errors carry the file, line and column.
 pub fn parse(text: &str, origin: &str) -> Result<Netlist, GraphError> {
+    let text = text.strip_prefix('\u{feff}').unwrap_or(text);
     serde_json::from_str(text).map_err(|e| GraphError::Json {
         file: origin.to_string(),
         line: e.line(),
@@ -43,61 +83,149 @@ pub fn parse(text: &str, origin: &str) -> Result<Netlist, GraphError> {
 pub fn load(loader: &dyn Loader, path: &Path) -> Result<FlatNetlist, GraphError> {
     let text = loader.read(path).map_err(|message| GraphError::Io { file: path.display().to_string(), message })?;
     let netlist = parse(&text, &path.display().to_string())?;
-    flatten(loader, &netlist, path.parent().unwrap_or(Path::new("")), 0)
+    expand(loader, &netlist, path, &mut vec![path.to_path_buf()])
 }
 
 /// Expand a parsed netlist whose subsystem files are relative to `dir`.
 pub fn flatten(loader: &dyn Loader, netlist: &Netlist, dir: &Path, depth: usize) -> Result<FlatNetlist, GraphError> {
-    if depth > 16 {
-        return Err(GraphError::Subsystem {
-            id: netlist.name.clone().unwrap_or_default(),
-            message: "subsystems nested more than 16 deep (a file including itself?)".into(),
-        });
-    }
+    let origin = dir.join(netlist.name.as_deref().unwrap_or("netlist"));
+    let mut chain = vec![PathBuf::new(); depth];
+    chain.push(origin.clone());
+    expand(loader, netlist, &origin, &mut chain)
+}
+
+fn valid_user_id(id: &str) -> bool {
+    !id.is_empty() && id.chars().all(|c| c.is_ascii_alphanumeric() || c == '_' || c == '-')
+}
+
+/// Expand `netlist`, read from `file`; `chain` lists the files including it (itself last).
+fn expand(loader: &dyn Loader, netlist: &Netlist, file: &Path, chain: &mut Vec<PathBuf>) -> Result<FlatNetlist, GraphError> {
+    let origin = file.display().to_string();
+    let dir = file.parent().unwrap_or(Path::new(""));
     let mut components = Vec::new();
     let mut connections = Vec::new();
+    let mut parameters = Vec::new();
+    let mut aliases = BTreeMap::new();
+    for (name, decl) in &netlist.parameters {
+        if !crate::params::valid_parameter_name(name) {
+            return Err(GraphError::BadParameterName { file: origin.clone(), name: name.clone() });
+        }
+        let (declared_dim, declared_unit) = match decl.value() {
+            Value::Text(t) if !units::expr::is_expression(t) => {
+                (crate::params::literal(t).ok().map(|q| q.dim), crate::params::literal_unit(t))
+            }
+            _ => (None, String::new()),
+        };
+        parameters.push(FlatParameter {
+            name: name.clone(),
+            value: decl.value().clone(),
+            description: decl.description().map(str::to_string),
+            scope: String::new(),
+            origin: origin.clone(),
+            declared_dim,
+            declared_unit,
+        });
+    }
     // exposed "sub.port" → inner "sub.inner.port"
     let mut exposed: BTreeMap<String, String> = BTreeMap::new();
     for c in &netlist.components {
+        if !valid_user_id(&c.id) {
+            return Err(GraphError::BadId { file: origin.clone(), id: c.id.clone() });
+        }
+        if netlist.parameters.contains_key(&c.id) {
+            return Err(GraphError::Subsystem {
+                id: c.id.clone(),
+                message: format!("{origin}: \"{}\" is both a component and a parameter", c.id),
+            });
+        }
         if c.kind != "subsystem" {
-            components.push(c.clone());
+            components.push(Component { origin: origin.clone(), ..c.clone() });
             continue;
         }
-        let file =
-            c.file.as_deref().ok_or_else(|| GraphError::Subsystem { id: c.id.clone(), message: "a subsystem needs \"file\"".into() })?;
-        let path = dir.join(file);
+        let sub_file = c
+            .file
+            .as_deref()
+            .ok_or_else(|| GraphError::Subsystem { id: c.id.clone(), message: format!("{origin}: a subsystem needs \"file\"") })?;
+        let path = dir.join(sub_file);
+        if chain.len() > MAX_NESTING || chain.iter().any(|f| f == &path) {
+            let files: Vec<String> = chain.iter().chain([&path]).map(|f| f.display().to_string()).collect();
+            let why = if chain.len() > MAX_NESTING {
+                format!("subsystems nested more than {MAX_NESTING} deep")
+            } else {
+                "a subsystem includes itself".to_string()
+            };
+            return Err(GraphError::Subsystem { id: c.id.clone(), message: format!("{why}: {}", files.join(" -> ")) });
+        }
         let text = loader.read(&path).map_err(|message| GraphError::Io { file: path.display().to_string(), message })?;
         let sub = parse(&text, &path.display().to_string())?;
-        let mut inner = flatten(loader, &sub, path.parent().unwrap_or(Path::new("")), depth + 1)?;
+        chain.push(path.clone());
+        let inner = expand(loader, &sub, &path, chain)?;
+        chain.pop();
         let interface = sub.interface.clone().unwrap_or_default();
-        // parameters set through the interface
-        for (name, value) in c.params.iter().chain(c.init.iter()) {
-            let targets = interface.params.get(name).ok_or_else(|| GraphError::Subsystem {
-                id: c.id.clone(),
-                message: format!(
-                    "unknown parameter \"{name}\" (the subsystem exposes: {})",
-                    interface.params.keys().cloned().collect::<Vec<_>>().join(", ")
-                ),
-            })?;
+        let prefix = |name: &str| format!("{}.{name}", c.id);
+        let mut inner_components: Vec<Component> = inner
+            .components
+            .into_iter()
+            .map(|ic| Component { id: prefix(&ic.id), scopes: prefix_scopes(&c.id, ic.scopes), ..ic })
+            .collect();
+        let mut inner_parameters: Vec<FlatParameter> = inner
+            .parameters
+            .into_iter()
+            .map(|p| FlatParameter { name: prefix(&p.name), scope: prefix_scope(&c.id, &p.scope), ..p })
+            .collect();
+        for (name, targets) in inner.aliases {
+            aliases.insert(prefix(&name), targets.iter().map(|t| prefix(t)).collect());
+        }
+        for (name, targets) in &interface.params {
+            let mut full = Vec::new();
             for target in targets {
-                let (tid, tparam) = split_ref(target)
-                    .ok_or_else(|| GraphError::Subsystem { id: c.id.clone(), message: format!("bad interface target \"{target}\"") })?;
-                let comp = inner.components.iter_mut().find(|ic| ic.id == tid).ok_or_else(|| GraphError::Subsystem {
+                let (tid, tparam) = split_ref(target).ok_or_else(|| GraphError::Subsystem {
                     id: c.id.clone(),
-                    message: format!("interface parameter \"{name}\" points to unknown component \"{tid}\""),
+                    message: format!("{}: bad interface target \"{target}\"", path.display()),
                 })?;
-                comp.init.remove(tparam);
-                comp.params.insert(tparam.to_string(), value.clone());
+                if !inner_components.iter().any(|ic| ic.id == prefix(tid)) {
+                    return Err(GraphError::Subsystem {
+                        id: c.id.clone(),
+                        message: format!("{}: interface parameter \"{name}\" points to unknown component \"{tid}\"", path.display()),
+                    });
+                }
+                full.push(format!("{}.{tparam}", prefix(tid)));
+            }
+            aliases.insert(prefix(name), full);
+        }
+        // values the instance gives: interface parameters set their targets,
+        // declared parameters take the value; both evaluated in this netlist's scope
+        let scope = String::new();
+        for (name, value) in c.params.iter().chain(c.init.iter()) {
+            if let Some(targets) = interface.params.get(name) {
+                for target in targets {
+                    let (tid, tparam) = split_ref(target).unwrap_or_default();
+                    if let Some(comp) = inner_components.iter_mut().find(|ic| ic.id == prefix(tid)) {
+                        comp.init.remove(tparam);
+                        comp.params.insert(tparam.to_string(), value.clone());
+                        comp.scopes.insert(tparam.to_string(), scope.clone());
+                    }
+                }
+            } else if let Some(p) = inner_parameters.iter_mut().find(|p| p.name == prefix(name)) {
+                p.value = value.clone();
+                p.scope = scope.clone();
+                p.origin = origin.clone();
+            } else {
+                let mut known: Vec<&str> = interface.params.keys().map(String::as_str).collect();
+                known.extend(sub.parameters.keys().map(String::as_str));
+                return Err(GraphError::Subsystem {
+                    id: c.id.clone(),
+                    message: format!("unknown parameter \"{name}\" (the subsystem exposes: {})", known.join(", ")),
+                });
             }
         }
-        for ic in inner.components {
-            components.push(Component { id: format!("{}.{}", c.id, ic.id), ..ic });
-        }
+        components.append(&mut inner_components);
+        parameters.append(&mut inner_parameters);
         for (a, b) in inner.connections {
-            connections.push((format!("{}.{a}", c.id), format!("{}.{b}", c.id)));
+            connections.push((prefix(&a), prefix(&b)));
         }
         for (name, target) in &interface.ports {
-            exposed.insert(format!("{}.{name}", c.id), format!("{}.{target}", c.id));
+            exposed.insert(prefix(name), prefix(target));
         }
     }
     for conn in &netlist.connections {
@@ -111,7 +239,23 @@ pub fn flatten(loader: &dyn Loader, netlist: &Netlist, dir: &Path, depth: usize)
         components,
         connections,
         simulation: netlist.simulation.clone(),
+        parameters,
+        aliases,
+        origin,
     })
+}
+
+fn prefix_scope(instance: &str, scope: &str) -> String {
+    if scope.is_empty() {
+        instance.to_string()
+    } else {
+        format!("{instance}.{scope}")
+    }
+}
+
+/// Scopes recorded inside an instance move into it with the ids.
+fn prefix_scopes(instance: &str, scopes: BTreeMap<String, String>) -> BTreeMap<String, String> {
+    scopes.into_iter().map(|(param, scope)| (param, prefix_scope(instance, &scope))).collect()
 }
 
 /// Read a `--set` value: a plain number is SI, anything else keeps its text (with unit).
@@ -122,20 +266,73 @@ pub fn value_from_text(text: &str) -> Value {
     }
 }
 
-/// Apply an override "ID.PARAM=VALUE" to the flat netlist.
+/// Apply an override "NAME=VALUE" to the flat netlist: a parameter
+/// (`p_supply`, `cyl.bore`), an interface parameter of a subsystem
+/// (`cyl.T0`), a component parameter (`supply.p`, `cyl.piston.mass`),
+/// `gas.model`/`gas.species` or `simulation.<setting>`. The value may be an
+/// expression (`"rod.p0== supply.p"`), evaluated at the top level.
 pub fn apply_set(flat: &mut FlatNetlist, assignment: &str) -> Result<(), GraphError> {
-    let bad = |message: &str| GraphError::Set { assignment: assignment.to_string(), message: message.to_string() };
-    let (target, value) = assignment.split_once('=').ok_or_else(|| bad("expected ID.PARAM=VALUE"))?;
-    let (id, param) = split_ref(target.trim()).ok_or_else(|| bad("expected ID.PARAM=VALUE"))?;
+    let bad = |message: &str| GraphError::Set { assignment: crate::escape(assignment), message: message.to_string() };
+    let (target, value) = assignment.split_once('=').ok_or_else(|| bad("expected NAME=VALUE (e.g. supply.p=6 bar)"))?;
+    let target = target.trim();
+    if let Some(p) = flat.parameters.iter_mut().find(|p| p.name == target) {
+        p.value = value_from_text(value);
+        p.scope = String::new();
+        return Ok(());
+    }
+    if let Some(targets) = flat.aliases.get(target).cloned() {
+        for t in targets {
+            set_component_value(flat, &t, value).map_err(|m| bad(&m))?;
+        }
+        return Ok(());
+    }
+    let (id, param) = split_ref(target).ok_or_else(|| {
+        let known: Vec<&str> = flat.parameters.iter().map(|p| p.name.as_str()).filter(|n| !n.contains('.')).collect();
+        if known.is_empty() {
+            bad("expected ID.PARAM=VALUE")
+        } else {
+            bad(&format!("no parameter \"{}\" (parameters: {})", crate::escape(target), known.join(", ")))
+        }
+    })?;
     if id == "simulation" {
         return apply_simulation_set(&mut flat.simulation, param, value).map_err(|m| bad(&m));
     }
     if let Some(words) = gas_setting_words(flat, id, param) {
         return apply_gas_set(&mut flat.gas, param, value, words.map_err(|m| bad(&m))?).map_err(|m| bad(&m));
     }
-    let comp = flat.components.iter_mut().find(|c| c.id == id).ok_or_else(|| bad(&format!("no component \"{id}\"")))?;
-    comp.init.remove(param);
-    comp.params.insert(param.to_string(), value_from_text(value));
+    set_component_value(flat, target, value).map_err(|m| bad(&m))
+}
+
+/// Write `value` into `id.param` of a component, as a top-level value.
+fn set_component_value(flat: &mut FlatNetlist, target: &str, value: &str) -> Result<(), String> {
+    let (id, param) = split_ref(target).ok_or_else(|| "expected ID.PARAM=VALUE".to_string())?;
+    let scope_ids = |flat: &FlatNetlist| -> Vec<String> {
+        let mut ids: Vec<String> = flat.components.iter().map(|c| c.id.clone()).collect();
+        ids.sort();
+        ids
+    };
+    let Some(comp) = flat.components.iter_mut().find(|c| c.id == id) else {
+        let is_instance = flat.components.iter().any(|c| c.id.starts_with(&format!("{id}.")));
+        return Err(if is_instance {
+            let names: Vec<String> = flat
+                .parameters
+                .iter()
+                .map(|p| p.name.clone())
+                .chain(flat.aliases.keys().cloned())
+                .filter_map(|n| n.strip_prefix(&format!("{id}.")).map(str::to_string))
+                .filter(|n| !n.contains('.'))
+                .collect();
+            format!("subsystem \"{}\" has no parameter \"{}\" (it has: {})", crate::escape(id), crate::escape(param), names.join(", "))
+        } else {
+            let ids = scope_ids(flat);
+            format!("no component \"{}\" (components: {})", crate::escape(id), ids.join(", "))
+        });
+    };
+    let in_init = comp.init.remove(param).is_some();
+    comp.params.remove(param);
+    let map = if in_init { &mut comp.init } else { &mut comp.params };
+    map.insert(param.to_string(), value_from_text(value));
+    comp.scopes.insert(param.to_string(), String::new());
     Ok(())
 }
 
@@ -176,7 +373,14 @@ fn apply_simulation_set(sim: &mut Simulation, param: &str, value: &str) -> Resul
         "sample_interval" => sim.sample_interval = Some(value_from_text(value)),
         "max_step" => sim.max_step = Some(value_from_text(value)),
         "cycles" => sim.cycles = Some(value.trim().parse().map_err(|_| format!("\"{value}\" is not a whole number"))?),
-        _ => return Err(format!("unknown simulation setting \"{param}\" (rtol, atol, t_end, cycles, sample_interval, max_step)")),
+        "initial" => {
+            let word = InitialMode::NAMES
+                .iter()
+                .find(|w| w.eq_ignore_ascii_case(value.trim()))
+                .ok_or_else(|| format!("unknown initial mode \"{value}\" ({})", InitialMode::NAMES.join(", ")))?;
+            sim.initial = if *word == "rest" { InitialMode::Rest } else { InitialMode::Given };
+        }
+        _ => return Err(format!("unknown simulation setting \"{param}\" (rtol, atol, t_end, cycles, sample_interval, max_step, initial)")),
     }
     Ok(())
 }

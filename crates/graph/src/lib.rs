@@ -7,13 +7,54 @@
 //! through [`expand::Loader`]), terminals.
 
 pub mod circuit;
+pub mod consistency;
 pub mod expand;
 pub mod netlist;
+pub mod params;
 pub mod report;
 
 pub use circuit::{build, Circuit, NodeCausality, PortRef};
 pub use expand::{apply_set, load, FlatNetlist, Loader};
 pub use netlist::Netlist;
+pub use params::{resolve, Resolved};
+
+/// Input that was accepted but is probably not what the user meant; shown
+/// as one line, never fatal.
+#[derive(Debug, Clone, PartialEq, Eq, PartialOrd, Ord)]
+pub struct Warning {
+    /// File the questionable value was written in ("" for the command line or unknown).
+    pub file: String,
+    pub message: String,
+}
+
+impl std::fmt::Display for Warning {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        if self.file.is_empty() {
+            write!(f, "{}", self.message)
+        } else {
+            write!(f, "{}: {}", self.file, self.message)
+        }
+    }
+}
+
+/// Text from the user made safe to echo in a one-line message: control
+/// characters (newlines, escapes, ...) are shown as `\u{..}`, and very long
+/// text is cut.
+pub fn escape(text: &str) -> String {
+    let mut out = String::new();
+    for (i, c) in text.chars().enumerate() {
+        if i >= 200 {
+            out.push('…');
+            break;
+        }
+        if c.is_control() || matches!(c, '\u{2028}' | '\u{2029}' | '\u{feff}' | '\u{202e}' | '\u{202d}') {
+            out.push_str(&format!("\\u{{{:x}}}", c as u32));
+        } else {
+            out.push(c);
+        }
+    }
+    out
+}
 
 use blocks::block::Domain;
 
@@ -31,8 +72,14 @@ pub enum GraphError {
     Subsystem { id: String, message: String },
     #[error("--set {assignment}: {message}")]
     Set { assignment: String, message: String },
-    #[error("component id \"{id}\" may contain only letters, digits, '_' and '-'")]
-    BadId { id: String },
+    #[error("{file}: component id \"{}\" may contain only letters, digits, '_' and '-'", escape(id))]
+    BadId { file: String, id: String },
+    #[error("{file}: parameter name \"{}\" must be a letter or '_' followed by letters, digits or '_' (and not \"pi\")", escape(name))]
+    BadParameterName { file: String, name: String },
+    #[error("{file}: {subject}: {message}")]
+    Parameter { file: String, subject: String, message: String },
+    #[error("{file}: parameters refer to each other in a cycle: {cycle}")]
+    ParameterCycle { file: String, cycle: String },
     #[error("component id \"{id}\" is used twice")]
     DuplicateId { id: String },
     #[error("\"{reference}\" is not of the form ID.PORT")]

@@ -23,6 +23,12 @@ pub struct Netlist {
     /// Gas model for the whole circuit.
     #[serde(default)]
     pub gas: GasChoice,
+    /// Named parameters: `"bore": "45 mm"` or `"bore": {"value": "45 mm",
+    /// "description": "piston diameter"}`. Component values refer to them
+    /// by name in expressions (`"= pi/4 * bore^2"`). In a subsystem they are
+    /// the parameters its instances may set.
+    #[serde(default)]
+    pub parameters: BTreeMap<String, ParameterDecl>,
     /// The components.
     pub components: Vec<Component>,
     /// Connections between ports, "id.port" to "id.port".
@@ -95,6 +101,35 @@ impl Value {
     }
 }
 
+/// A named parameter: a value (number, text with unit, or expression), with
+/// an optional description.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(untagged)]
+pub enum ParameterDecl {
+    /// `{"value": "45 mm", "description": "piston diameter"}`
+    Full {
+        value: Value,
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        description: Option<String>,
+    },
+    /// `"45 mm"`, `0.3`, `"= 2 * V_port"`
+    Short(Value),
+}
+
+impl ParameterDecl {
+    pub fn value(&self) -> &Value {
+        match self {
+            ParameterDecl::Full { value, .. } | ParameterDecl::Short(value) => value,
+        }
+    }
+    pub fn description(&self) -> Option<&str> {
+        match self {
+            ParameterDecl::Full { description, .. } => description.as_deref(),
+            ParameterDecl::Short(_) => None,
+        }
+    }
+}
+
 /// One component instance.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
@@ -113,6 +148,32 @@ pub struct Component {
     /// Initial conditions (same syntax as parameters).
     #[serde(default)]
     pub init: BTreeMap<String, Value>,
+    /// File the component was read from (set when loading; not part of the format).
+    #[serde(skip)]
+    #[schemars(skip)]
+    pub origin: String,
+    /// Scope in which an expression value of a parameter is evaluated, when it
+    /// is not the component's own (a value given by a subsystem's instance or
+    /// on the command line). Set when expanding; not part of the format.
+    #[serde(skip)]
+    #[schemars(skip)]
+    pub scopes: BTreeMap<String, String>,
+}
+
+impl Component {
+    /// Scope of the names in the expression value of `param`: the subsystem
+    /// instance the component belongs to ("" at the top level), unless the
+    /// value came from elsewhere.
+    pub fn scope_of(&self, param: &str) -> &str {
+        match self.scopes.get(param) {
+            Some(s) => s,
+            None => self.id.rsplit_once('.').map(|(scope, _)| scope).unwrap_or(""),
+        }
+    }
+    /// The written value of `param` (in `params` or `init`).
+    pub fn value(&self, param: &str) -> Option<&Value> {
+        self.params.get(param).or_else(|| self.init.get(param))
+    }
 }
 
 /// A connection between two ports.
@@ -159,6 +220,27 @@ pub struct Simulation {
     /// Signals to write ("head.p", "piston.x"); empty = all.
     #[serde(default)]
     pub outputs: Vec<String>,
+    /// Initial state: "given" (each component's init values or their
+    /// defaults) or "rest" (the state the circuit rests in before t = 0 with
+    /// its controllers released; init values written explicitly still win).
+    #[serde(default)]
+    pub initial: InitialMode,
+}
+
+/// How the initial state is found.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, JsonSchema, Default)]
+#[serde(rename_all = "snake_case")]
+pub enum InitialMode {
+    /// Init values as written, block defaults for the rest.
+    #[default]
+    Given,
+    /// Chambers open to a source take its pressure and temperature, pistons
+    /// rest where the forces put them; explicit init values still win.
+    Rest,
+}
+
+impl InitialMode {
+    pub const NAMES: &'static [&'static str] = &["given", "rest"];
 }
 
 fn default_rtol() -> f64 {
@@ -178,6 +260,7 @@ impl Default for Simulation {
             sample_interval: None,
             max_step: None,
             outputs: Vec::new(),
+            initial: InitialMode::Given,
         }
     }
 }
@@ -200,7 +283,55 @@ pub fn split_ref(r: &str) -> Option<(&str, &str)> {
     (!id.is_empty() && !port.is_empty()).then_some((id, port))
 }
 
-/// JSON Schema of the netlist format.
+/// JSON Schema of the netlist format, with the parameters of every block
+/// type (so that an editor completes and checks `params` and `init`).
 pub fn schema() -> serde_json::Value {
-    serde_json::to_value(schemars::schema_for!(Netlist)).unwrap_or(serde_json::Value::Null)
+    use serde_json::json;
+    let mut schema = serde_json::to_value(schemars::schema_for!(Netlist)).unwrap_or(serde_json::Value::Null);
+    let mut types: Vec<&str> = blocks::registry::TYPES.iter().map(|t| t.name).collect();
+    types.push("subsystem");
+    let per_type: Vec<serde_json::Value> = blocks::registry::TYPES
+        .iter()
+        .map(|t| {
+            let props: serde_json::Map<String, serde_json::Value> =
+                t.params.iter().map(|p| (p.name.to_string(), param_schema(p))).collect();
+            let values = json!({ "type": "object", "properties": props, "additionalProperties": false });
+            json!({
+                "if": { "properties": { "type": { "const": t.name } }, "required": ["type"] },
+                "then": { "description": t.doc, "properties": { "params": values.clone(), "init": values } }
+            })
+        })
+        .collect();
+    if let Some(component) = schema.pointer_mut("/$defs/Component") {
+        component["properties"]["type"]["enum"] = json!(types);
+        component["allOf"] = json!(per_type);
+    }
+    schema
+}
+
+/// Schema of one block parameter: a number (SI), a text with unit or an
+/// expression ("= ..."), or one of the words of a choice.
+fn param_schema(p: &blocks::params::ParamSpec) -> serde_json::Value {
+    use blocks::params::ParamKind;
+    use serde_json::json;
+    let unit = if p.display_unit.is_empty() { String::new() } else { format!(" [{}]", p.display_unit) };
+    let default = match (p.default, p.kind) {
+        (None, _) => " (required)".to_string(),
+        (Some(d), ParamKind::Choice(options)) => format!(" (default {})", options.get(d as usize).copied().unwrap_or("")),
+        (Some(d), _) if d.is_infinite() => " (default inf)".to_string(),
+        (Some(d), _) if p.display_unit.is_empty() => format!(" (default {d})"),
+        (Some(d), _) => format!(
+            " (default {} {})",
+            units::to_unit(d, p.display_unit).map(|v| format!("{v:.6e}").parse::<f64>().unwrap_or(v)).unwrap_or(d),
+            p.display_unit
+        ),
+    };
+    let description = format!("{}{unit}{default}", p.doc);
+    match p.kind {
+        ParamKind::Choice(options) => json!({ "description": description, "enum": options }),
+        ParamKind::List(_) => {
+            json!({ "description": description, "anyOf": [{ "type": "array" }, { "type": "string" }, { "type": "number" }] })
+        }
+        _ => json!({ "description": description, "anyOf": [{ "type": "number" }, { "type": "string" }] }),
+    }
 }

@@ -103,3 +103,43 @@ pub fn dot(c: &Circuit) -> String {
     s.push_str("}\n");
     s
 }
+
+/// A value in its display unit ("4 bar"), or SI with the dimension's unit.
+pub fn show_value(v: &crate::params::ResolvedValue) -> String {
+    let unit = if v.display_unit.is_empty() { crate::params::si_unit(v.dim) } else { v.display_unit.clone() };
+    let x = if unit.is_empty() { v.si } else { units::to_unit(v.si, &unit).unwrap_or(v.si) };
+    // 10 significant digits hide conversion noise such as 19.999999999999996
+    let x: f64 = format!("{x:.9e}").parse().unwrap_or(x);
+    if unit.is_empty() {
+        format!("{x}")
+    } else {
+        format!("{x} {unit}")
+    }
+}
+
+/// The named parameters and every component value derived from an
+/// expression, with their resolved values (printed by `pneumo check`).
+pub fn parameter_table(c: &Circuit) -> String {
+    use crate::params::SlotKind;
+    let mut s = String::new();
+    let params: Vec<_> = c.resolved.values.iter().filter(|(_, v)| matches!(v.kind, SlotKind::Parameter { .. })).collect();
+    let derived: Vec<_> = c.resolved.values.iter().filter(|(_, v)| !matches!(v.kind, SlotKind::Parameter { .. }) && v.derived()).collect();
+    if !params.is_empty() {
+        let _ = writeln!(s, "\nparameters ({}):", params.len());
+        for (name, v) in params {
+            let how = v.expression.as_ref().map(|e| format!("= {e}")).unwrap_or_default();
+            let doc = match &v.kind {
+                SlotKind::Parameter { description: Some(d) } => d.as_str(),
+                _ => "",
+            };
+            let _ = writeln!(s, "  {:<22} {:<18} {:<28} {}", name, show_value(v), how, crate::escape(doc));
+        }
+    }
+    if !derived.is_empty() {
+        let _ = writeln!(s, "\nderived values ({}):", derived.len());
+        for (name, v) in derived {
+            let _ = writeln!(s, "  {:<22} {:<18} = {}", name, show_value(v), v.expression.as_deref().unwrap_or(""));
+        }
+    }
+    s
+}

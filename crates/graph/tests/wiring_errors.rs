@@ -350,7 +350,7 @@ fn set_with_unknown_component_is_named() {
     let e = graph::apply_set(&mut flat, "vlave.C=2 L/min/bar").unwrap_err().to_string();
     assert_names(&e, &["vlave.C=2 L/min/bar", "no component \"vlave\""]);
     let e = graph::apply_set(&mut flat, "valve.C").unwrap_err().to_string();
-    assert_names(&e, &["valve.C", "ID.PARAM=VALUE"]);
+    assert_names(&e, &["valve.C", "NAME=VALUE"]);
     let e = graph::apply_set(&mut flat, "simulation.tolerance=1e-3").unwrap_err().to_string();
     assert_names(&e, &["\"tolerance\"", "rtol"]);
 }
@@ -495,5 +495,25 @@ fn subsystem_including_itself_is_stopped() {
     .to_string();
     let loader = MemLoader::with(&[("loop.json", me)]);
     let e = graph::load(&loader, Path::new("loop.json")).unwrap_err().to_string();
-    assert_names(&e, &["nested more than 16 deep"]);
+    // the message names the chain of files, not just a depth
+    assert_names(&e, &["includes itself", "loop.json -> loop.json"]);
+}
+
+#[test]
+fn subsystems_nested_too_deep_are_stopped_with_the_chain_of_files() {
+    // level k includes level k + 1; 20 distinct files, none including itself
+    let files: Vec<(String, String)> = (0..20)
+        .map(|k| {
+            let text = json!({
+                "components": [{ "id": "inner", "type": "subsystem", "file": format!("level{}.json", k + 1) }],
+                "connections": []
+            })
+            .to_string();
+            (format!("level{k}.json"), text)
+        })
+        .collect();
+    let refs: Vec<(&str, String)> = files.iter().map(|(n, t)| (n.as_str(), t.clone())).collect();
+    let loader = MemLoader::with(&refs);
+    let e = graph::load(&loader, Path::new("level0.json")).unwrap_err().to_string();
+    assert_names(&e, &["nested more than 16 deep", "level0.json -> level1.json", "level17.json"]);
 }

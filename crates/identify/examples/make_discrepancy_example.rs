@@ -49,7 +49,6 @@ fn main() -> Result<(), String> {
         let mut truth = model.clone();
         for s in [
             format!("supply.p={supply}"),
-            format!("rod.p0={supply}"),
             format!("flow_control.C={}", c_true * L_MIN_BAR),
             "controller.dwell_extended=0.2".to_string(),
             "controller.dwell_retracted=0.2".to_string(),
@@ -87,7 +86,7 @@ fn main() -> Result<(), String> {
         let origin = if k == 2 { ", \"time_origin\": \"100 s\"" } else { "" };
         let _ = write!(
             manifest,
-            "    {{ \"name\": \"{}_{}\", \"data\": \"{file}\"{origin},\n      \"set\": {{ \"supply.p\": \"{supply}\", \"rod.p0\": \"{supply}\", \"flow_control.C\": \"{marked}\", \"controller.dwell_extended\": \"0.2 s\", \"controller.dwell_retracted\": \"0.2 s\" }},\n      \"columns\": {{ \"p1_Pa\": \"head.p\", \"p2_Pa\": \"rod.p\", \"x_m\": \"piston.x\" }} }}{}\n",
+            "    {{ \"name\": \"{}_{}\", \"data\": \"{file}\"{origin},\n      \"set\": {{ \"supply.p\": \"{supply}\", \"flow_control.C\": \"{marked}\", \"controller.dwell_extended\": \"0.2 s\", \"controller.dwell_retracted\": \"0.2 s\" }},\n      \"columns\": {{ \"p1_Pa\": \"head.p\", \"p2_Pa\": \"rod.p\", \"x_m\": \"piston.x\" }} }}{}\n",
             supply.replace(' ', ""),
             marked.split(' ').next().unwrap_or(""),
             if k + 1 < points.len() { "," } else { "" }

@@ -102,7 +102,28 @@ pub fn parse_csv(text: &str, origin: &str) -> Result<Dataset, DataError> {
         file: origin.to_string(),
         message: "is empty (expected a header line with a column \"t\")".into(),
     })?;
-    let names: Vec<String> = header.split(',').map(|s| s.trim().trim_matches('"').to_string()).collect();
+    // "p1 [bar]": a unit after the name converts the column to SI
+    let mut scales: Vec<Option<units::Unit>> = Vec::new();
+    let mut names: Vec<String> = Vec::new();
+    for (k, cell) in header.split(',').map(|s| s.trim().trim_matches('"')).enumerate() {
+        match cell.strip_suffix(']').and_then(|c| c.rsplit_once(" [")) {
+            Some((name, unit)) => {
+                let u = units::parse_unit(unit.trim()).map_err(|e| DataError::Cell {
+                    file: origin.into(),
+                    line: header_line,
+                    column: k + 1,
+                    name: name.trim().to_string(),
+                    message: format!("unit \"{}\": {e}", unit.trim()),
+                })?;
+                names.push(name.trim().to_string());
+                scales.push(Some(u));
+            }
+            None => {
+                names.push(cell.to_string());
+                scales.push(None);
+            }
+        }
+    }
     for (k, n) in names.iter().enumerate() {
         if n.is_empty() {
             return Err(DataError::Cell {
@@ -147,7 +168,7 @@ pub fn parse_csv(text: &str, origin: &str) -> Result<Dataset, DataError> {
                 return Ok(None);
             }
             match f.parse::<f64>() {
-                Ok(v) if v.is_finite() => Ok(Some(v)),
+                Ok(v) if v.is_finite() => Ok(Some(scales[k].map_or(v, |u| u.to_si(v)))),
                 Ok(v) => Err(DataError::Cell {
                     file: origin.into(),
                     line,

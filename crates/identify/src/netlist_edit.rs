@@ -64,15 +64,19 @@ pub fn parse_for(flat: &FlatNetlist, id: &str, param: &str, value: &Value) -> Re
     parse_value(&relaxed, &value.to_raw()).map_err(|e| EditError::Param { target: format!("{id}.{param}"), message: e.to_string() })
 }
 
-/// SI value of `id.param`: as written in the netlist, else the block default.
+/// SI value of `id.param`: as written in the netlist (expressions
+/// evaluated, see [`graph::params`]), else the block default.
 pub fn param_si(flat: &FlatNetlist, id: &str, param: &str) -> Result<f64, EditError> {
     let spec = spec_of(flat, id, param)?;
+    let target = format!("{id}.{param}");
     let c = component(flat, id).ok_or_else(|| EditError::NoComponent(id.to_string()))?;
     match c.params.get(param).or_else(|| c.init.get(param)) {
-        Some(v) => parse_value(spec, &v.to_raw()).map_err(|e| EditError::Param { target: format!("{id}.{param}"), message: e.to_string() }),
-        None => {
-            spec.default.ok_or_else(|| EditError::Param { target: format!("{id}.{param}"), message: "is required and not given".into() })
+        Some(Value::Text(t)) if units::expr::is_expression(t) => {
+            let resolved = graph::params::resolve(flat).map_err(|e| EditError::Param { target: target.clone(), message: e.to_string() })?;
+            resolved.get(&target).map(|v| v.si).ok_or_else(|| EditError::Param { target, message: "has no value".into() })
         }
+        Some(v) => parse_value(spec, &v.to_raw()).map_err(|e| EditError::Param { target, message: e.to_string() }),
+        None => spec.default.ok_or_else(|| EditError::Param { target, message: "is required and not given".into() }),
     }
 }
 
@@ -110,7 +114,16 @@ pub fn fresh_id(flat: &FlatNetlist, base: &str) -> String {
 /// Add a component with SI-number parameters.
 pub fn add_component(flat: &mut FlatNetlist, id: &str, kind: &str, params: &[(&str, f64)], init: &[(&str, f64)]) {
     let to_map = |xs: &[(&str, f64)]| xs.iter().map(|(k, v)| (k.to_string(), Value::Number(*v))).collect::<BTreeMap<_, _>>();
-    flat.components.push(Component { id: id.to_string(), kind: kind.to_string(), file: None, params: to_map(params), init: to_map(init) });
+    let origin = flat.origin.clone();
+    flat.components.push(Component {
+        id: id.to_string(),
+        kind: kind.to_string(),
+        file: None,
+        params: to_map(params),
+        init: to_map(init),
+        origin,
+        scopes: BTreeMap::new(),
+    });
 }
 
 /// Every port on the same node as `port` (joined through connections), `port` included.

@@ -2,7 +2,7 @@
 //!
 //! Owns: the flat state vector and right-hand side ([`model`]), algebraic
 //! junctions ([`junction`]), stick–slip and end-stop modes of mechanical
-//! nodes ([`mechanics`]), the event loop and result sampling ([`simulate`]),
+//! nodes ([`mechanics`]), the rest state before t = 0 ([`rest`]), the event loop and result sampling ([`simulate`]),
 //! and the reading of simulation settings ([`settings`]).
 //! Never knows: concrete block types (blocks are reached through the
 //! `Block` trait only), files, terminals.
@@ -10,9 +10,11 @@
 pub mod junction;
 pub mod mechanics;
 pub mod model;
+pub mod rest;
 pub mod settings;
 pub mod simulate;
 
 pub use model::{Model, ModelError};
+pub use rest::{RestError, RestReport, RestValue};
 pub use settings::options_from;
-pub use simulate::{simulate, Balance, EventLog, SimOptions, SimResult, SolveError};
+pub use simulate::{simulate, Balance, EventLog, FinalState, MassState, SimOptions, SimResult, SolveError};

@@ -75,6 +75,8 @@ pub struct Model {
     pub(crate) junction_step: Vec<f64>,
     /// Number of right-hand-side evaluations.
     pub evaluations: u64,
+    /// Evaluate signals as at rest before t = 0 (see [`crate::rest`]).
+    pub(crate) at_rest: bool,
 }
 
 /// Why the model could not be built or evaluated.
@@ -187,6 +189,7 @@ impl Model {
             junction_guess: vec![f64::NAN; n_nodes],
             junction_step: vec![0.0; n_nodes],
             evaluations: 0,
+            at_rest: false,
             circuit,
         }
     }
@@ -256,6 +259,7 @@ impl Model {
             junction_ports,
             junction_guess,
             junction_step,
+            at_rest,
             ..
         } = self;
 
@@ -289,15 +293,30 @@ impl Model {
             }
         }
         gather_gas(slots, node_gas);
-        // 3. signals
-        for &bi in &circuit.signal_order {
-            let slot = &mut slots[bi];
-            for (k, &s) in slot.sig_in.iter().enumerate() {
-                slot.sig[k] = signals[s];
+        // 3. signals (at rest: every block in its idle state, repeated until
+        // values settle, since a delayed signal then passes its input through)
+        let passes = if *at_rest { 1 + circuit.signal_order.len() } else { 1 };
+        for _ in 0..passes {
+            let mut changed = false;
+            for &bi in &circuit.signal_order {
+                let slot = &mut slots[bi];
+                for (k, &s) in slot.sig_in.iter().enumerate() {
+                    slot.sig[k] = signals[s];
+                }
+                let ctx = Ctx { t, gas, states: &y[slot.states.clone()], pneumatic: &slot.gas, mechanical: &slot.mech, signals: &slot.sig };
+                let block = &circuit.instances[bi].block;
+                if *at_rest {
+                    block.rest_signal_outputs(&ctx, &mut slot.sig_buf);
+                } else {
+                    block.signal_outputs(&ctx, &mut slot.sig_buf);
+                }
+                let out = &mut signals[slot.sig_out.clone()];
+                changed |= out != slot.sig_buf.as_slice();
+                out.copy_from_slice(&slot.sig_buf);
             }
-            let ctx = Ctx { t, gas, states: &y[slot.states.clone()], pneumatic: &slot.gas, mechanical: &slot.mech, signals: &slot.sig };
-            circuit.instances[bi].block.signal_outputs(&ctx, &mut slot.sig_buf);
-            signals[slot.sig_out.clone()].copy_from_slice(&slot.sig_buf);
+            if !changed {
+                break;
+            }
         }
         for slot in slots.iter_mut() {
             for (k, &s) in slot.sig_in.iter().enumerate() {
@@ -437,8 +456,7 @@ impl Model {
         let mut units = Vec::with_capacity(self.n_outputs);
         for inst in &self.circuit.instances {
             for p in inst.block.ports().iter().filter(|p| p.kind == PortKind::SignalOut) {
-                let unit = p.doc.rsplit_once('[').and_then(|(_, u)| u.strip_suffix(']')).unwrap_or("");
-                units.push(unit.to_string());
+                units.push(p.unit.to_string());
             }
             for o in inst.block.outputs() {
                 units.push(o.unit.to_string());

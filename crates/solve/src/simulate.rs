@@ -59,6 +59,100 @@ pub struct Balance {
     pub energy_residual: f64,
 }
 
+/// A moving mass at the end of a run: where it is and the forces on it.
+#[derive(Debug, Clone, PartialEq)]
+pub struct MassState {
+    /// Id of the inertia block ("piston").
+    pub id: String,
+    /// "held", "at the lower stop", "sliding, extending", ...
+    pub mode: String,
+    pub x: f64,
+    pub v: f64,
+    /// Net force other than dry friction [N], positive in the extend direction.
+    pub applied: f64,
+    /// Breakaway level of the dry friction [N].
+    pub breakaway: f64,
+}
+
+/// The state at the end of a run, for explaining a run that did not finish
+/// what it was asked to (a stalled actuator).
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct FinalState {
+    pub masses: Vec<MassState>,
+    /// Pressure [Pa] of every capacity, by component id.
+    pub pressures: Vec<(String, f64)>,
+}
+
+impl FinalState {
+    /// One line: each mass's position, mode and net force against its
+    /// breakaway level, then the chamber pressures.
+    pub fn describe(&self) -> String {
+        let mut parts: Vec<String> = self
+            .masses
+            .iter()
+            .map(|m| {
+                format!(
+                    "{} {} at x = {:.1} mm, net force {:.1} N against a breakaway level of {:.1} N",
+                    m.id,
+                    m.mode,
+                    m.x * 1e3,
+                    m.applied,
+                    m.breakaway
+                )
+            })
+            .collect();
+        if !self.pressures.is_empty() {
+            let p: Vec<String> = self.pressures.iter().map(|(id, p)| format!("{id}.p = {:.3} bar", p / 1e5)).collect();
+            parts.push(p.join(", "));
+        }
+        parts.join("; ")
+    }
+}
+
+fn mode_name(mode: Mode) -> &'static str {
+    match mode {
+        Mode::Sliding { dir } if dir > 0.0 => "sliding, extending",
+        Mode::Sliding { .. } => "sliding, retracting",
+        Mode::Held { may_extend: false, .. } => "at the upper stop",
+        Mode::Held { may_retract: false, .. } => "at the lower stop",
+        Mode::Held { .. } => "stuck",
+    }
+}
+
+fn final_state(model: &Model) -> FinalState {
+    let masses = model
+        .circuit
+        .mechanical_nodes
+        .iter()
+        .enumerate()
+        .map(|(node, mn)| {
+            let m = model.node_mech[node];
+            let f = model.node_forces[node];
+            MassState {
+                id: model.circuit.instances[mn.inertia.block].id.clone(),
+                mode: mode_name(model.modes[node]).to_string(),
+                x: m.x,
+                v: m.v,
+                applied: f.applied,
+                breakaway: f.breakaway,
+            }
+        })
+        .collect();
+    let pressures = model
+        .circuit
+        .pneumatic_nodes
+        .iter()
+        .enumerate()
+        .filter_map(|(n, pn)| match pn.causality {
+            graph::NodeCausality::Effort(r) if !model.circuit.instances[r.block].block.states().is_empty() => {
+                Some((model.circuit.instances[r.block].id.clone(), model.node_gas[n].p))
+            }
+            _ => None,
+        })
+        .collect();
+    FinalState { masses, pressures }
+}
+
 /// Everything a run produced.
 #[derive(Debug, Clone)]
 pub struct SimResult {
@@ -73,6 +167,10 @@ pub struct SimResult {
     pub t_final: f64,
     pub stats: ode::Stats,
     pub rhs_evaluations: u64,
+    /// Initial values chosen by the rest state (`"initial": "rest"`), if any.
+    pub rest: crate::rest::RestReport,
+    /// Where the moving masses and chamber pressures ended.
+    pub final_state: FinalState,
 }
 
 impl SimResult {
@@ -98,6 +196,8 @@ pub enum SolveError {
     TooManyEvents { t: f64, limit: usize },
     #[error("invalid settings: {0}")]
     Settings(String),
+    #[error("{0}")]
+    Rest(#[from] crate::rest::RestError),
 }
 
 /// The model seen by the integrator.
@@ -158,6 +258,8 @@ pub fn simulate(model: &mut Model, opts: &SimOptions) -> Result<SimResult, Solve
     if !(opts.rtol > 0.0 && opts.rtol < 1.0 && opts.atol > 0.0) {
         return Err(SolveError::Settings(format!("tolerances must be in (0, 1): rtol {} atol {}", opts.rtol, opts.atol)));
     }
+    let rest =
+        if model.circuit.simulation.initial == graph::netlist::InitialMode::Rest { crate::rest::apply(model)? } else { Default::default() };
     let mut y = model.initial_state();
     let n = model.dim();
     let scales = model.state_scales(&y);
@@ -180,6 +282,8 @@ pub fn simulate(model: &mut Model, opts: &SimOptions) -> Result<SimResult, Solve
         t_final: 0.0,
         stats: Default::default(),
         rhs_evaluations: 0,
+        rest,
+        final_state: FinalState::default(),
     };
 
     // initial modes: at rest where v = 0, then break away if the forces say so
@@ -298,6 +402,7 @@ pub fn simulate(model: &mut Model, opts: &SimOptions) -> Result<SimResult, Solve
         work_out,
         energy_residual: (last.energy - initial.energy - energy_in - heat_in + work_out) / energy_scale,
     };
+    result.final_state = final_state(model);
     result.t_final = t;
     result.stats = integrator.stats();
     result.rhs_evaluations = model.evaluations;
@@ -343,13 +448,7 @@ fn settle(model: &mut Model, t: f64, y: &mut [f64], log: &mut Vec<EventLog>) -> 
                     model.circuit.instances[r.block].block.reset_motion(&mut y[states], MechState { x, v });
                 }
                 let id = &model.circuit.instances[r.block].id;
-                let what = match tr.mode {
-                    Mode::Sliding { dir } if dir > 0.0 => "sliding, extending",
-                    Mode::Sliding { .. } => "sliding, retracting",
-                    Mode::Held { may_extend: false, .. } => "at the upper stop",
-                    Mode::Held { may_retract: false, .. } => "at the lower stop",
-                    Mode::Held { .. } => "stuck",
-                };
+                let what = mode_name(tr.mode);
                 if tr.mode != model.modes[node] || tr.reset.is_some() {
                     log.push(EventLog { t, what: format!("{id}: {what}") });
                     changed = true;

@@ -1,0 +1,452 @@
+//! The state a circuit rests in before t = 0 (`"simulation": {"initial": "rest"}`).
+//!
+//! A test rig is switched on, left alone with its controllers released, and
+//! only then commanded. Its initial state is therefore not a free choice: a
+//! chamber open to the supply through the released valves sits at the supply
+//! pressure, a chamber open to the exhaust at atmospheric pressure, and the
+//! piston rests against the stop its net force pushes it to. This module
+//! finds that state from the block contract alone (no block type is named):
+//!
+//! 1. **Released controllers.** Signals are evaluated with
+//!    [`blocks::Block::rest_signal_outputs`] (a cycler commands 0, a schedule
+//!    holds its initial value, a delay passes its input through), and every
+//!    block with two or more pneumatic flow ports is probed in that state:
+//!    with 10 bar on one port and 1 bar on all others, gas passing from port
+//!    a out of port b means the block lets gas go from a's node to b's node.
+//!    This gives a directed graph on the pneumatic nodes (a check valve
+//!    appears as a one-way edge).
+//! 2. **Pressures.** The sources of the circuit are the effort ports of blocks
+//!    without states (pressure sources, atmospheres); the capacities are
+//!    effort ports with states (chambers). Following the edges (never through
+//!    another source), a capacity whose free pressure
+//!    - exchanges gas both ways with sources of one pressure p_s takes p_s;
+//!    - can only receive gas from them takes p_s if it was below (otherwise it
+//!      keeps its value); can only lose gas to them takes p_s if it was above;
+//!    - reaches no source keeps its given (or default) value: a closed volume;
+//!    - reaches sources at different pressures takes the level it reaches
+//!      through the widest path (the path whose narrowest block passes the
+//!      most gas in the probe) when every path to another level is at least
+//!      [`DOMINANCE`] (100) times narrower: a piston seal leak does not move
+//!      the rod chamber off the supply pressure. This neglects the pressure
+//!      drop the leak flow causes on the main path (60 Pa in the rod chamber
+//!      of the meter-out circuit with a 0.3 L/(min·bar) seal leak, where the
+//!      check valve's opening range makes the main path soft);
+//!    - otherwise (a bleed, a divider of comparable restrictions) rests in a
+//!      flow equilibrium: the circuit is integrated at rest (controllers
+//!      released, pistons held) until its pressures no longer change, and
+//!      those chambers take the settled pressure and temperature. If nothing
+//!      settles within 10⁵ s, that is an error naming the chamber.
+//!
+//!    A capacity that takes a source's pressure also takes its temperature
+//!    (if its `T0` is free). Values written explicitly (`p0`, `T0`) are kept.
+//! 3. **Pistons.** With those pressures, the net applied force on each free
+//!    inertia decides where it rests: within the breakaway level it stays at
+//!    its (default) position; beyond it, it rests on the stop the force points
+//!    to. If, after moving it there, the force no longer holds it against
+//!    that stop (a closed chamber acting as a gas spring), the rest position
+//!    lies between the stops and is not computed: an error asks for `x0`.
+//!
+//! Limits: the graph rule is exact for chambers open to one pressure level
+//! (every shipped model); flow equilibria are found to the integrator's
+//! tolerance (1e-10). A force equilibrium between the stops (a gas spring, a
+//! spring) is reported as an error rather than guessed.
+//! A closed-centre valve leaves both chambers closed: they keep their given
+//! values.
+
+use crate::model::{Model, ModelError};
+use blocks::block::{Ctx, PortFlow};
+use gas::GasState;
+use graph::NodeCausality;
+
+/// Probe pressures [Pa] used to find the open paths of a block.
+const PROBE_HIGH: f64 = 10e5;
+const PROBE_LOW: f64 = 1e5;
+const PROBE_T: f64 = 293.15;
+
+/// One initial value the rest state chose.
+#[derive(Debug, Clone, PartialEq)]
+pub struct RestValue {
+    /// Component id.
+    pub id: String,
+    /// Parameter it stands for ("p0", "T0", "x0").
+    pub param: &'static str,
+    /// SI value.
+    pub value: f64,
+    /// Why: "open to supply", "closed volume", "pushed to the lower stop".
+    pub reason: String,
+}
+
+/// What the rest-state computation decided.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct RestReport {
+    pub values: Vec<RestValue>,
+}
+
+/// Why no rest state could be named.
+#[derive(Debug, thiserror::Error)]
+pub enum RestError {
+    #[error("rest state of \"{id}\": {message}")]
+    Undetermined { id: String, message: String },
+    #[error("rest state: {0}")]
+    Model(#[from] ModelError),
+}
+
+/// Compute the rest state and write it into the blocks' free initial values.
+/// Idempotent: values the user gave are never changed, free ones are
+/// recomputed the same way.
+pub fn apply(model: &mut Model) -> Result<RestReport, RestError> {
+    model.at_rest = true;
+    let result = compute(model);
+    model.at_rest = false;
+    result
+}
+
+fn compute(model: &mut Model) -> Result<RestReport, RestError> {
+    let mut report = RestReport::default();
+    let y = model.initial_state();
+    model.eval(0.0, &y, None, None)?;
+    let edges = open_paths(model, &y);
+    set_pressures(model, &edges, &mut report)?;
+    set_positions(model, &mut report)?;
+    Ok(report)
+}
+
+/// Directed edges between pneumatic nodes, with the probe flow [kg/s] as
+/// their width: gas can pass from `a` to `b` at rest.
+fn open_paths(model: &Model, y: &[f64]) -> Vec<Vec<(usize, f64)>> {
+    let gas = &*model.gas;
+    let state = |p: f64| GasState { p, t: PROBE_T, rho: gas.density(p, PROBE_T), h: gas.enthalpy(gas.density(p, PROBE_T), PROBE_T) };
+    let (high, low) = (state(PROBE_HIGH), state(PROBE_LOW));
+    let mut edges: Vec<Vec<(usize, f64)>> = vec![Vec::new(); model.circuit.pneumatic_nodes.len()];
+    for (bi, slot) in model.slots.iter().enumerate() {
+        let flow_ports: Vec<usize> = (0..slot.pneu_nodes.len()).filter(|&k| !slot.pneu_is_effort[k]).collect();
+        if flow_ports.len() < 2 {
+            continue;
+        }
+        let block = &model.circuit.instances[bi].block;
+        let mut probe = vec![low; slot.pneu_nodes.len()];
+        let mut out = vec![PortFlow::default(); slot.pneu_nodes.len()];
+        for &a in &flow_ports {
+            probe.fill(low);
+            probe[a] = high;
+            out.fill(PortFlow::default());
+            let ctx = Ctx { t: 0.0, gas, states: &y[slot.states.clone()], pneumatic: &probe, mechanical: &slot.mech, signals: &slot.sig };
+            block.flows(&ctx, &mut out);
+            let inflow = out[a].mdot;
+            if !(inflow.is_finite() && inflow > 0.0) {
+                continue;
+            }
+            for &b in &flow_ports {
+                let passed = -out[b].mdot;
+                if b != a && passed > 1e-9 * inflow {
+                    let (na, nb) = (slot.pneu_nodes[a], slot.pneu_nodes[b]);
+                    if na == nb {
+                        continue;
+                    }
+                    match edges[na].iter_mut().find(|(m, _)| *m == nb) {
+                        Some((_, w)) => *w = w.max(passed),
+                        None => edges[na].push((nb, passed)),
+                    }
+                }
+            }
+        }
+    }
+    edges
+}
+
+/// Role of a pneumatic node at rest.
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum Role {
+    /// Fixed pressure and temperature (an effort port of a block without states).
+    Source { block: usize },
+    /// A capacity (effort port of a block with states).
+    Capacity { block: usize },
+    /// An algebraic junction or anything else gas passes through.
+    Passage,
+}
+
+fn roles(model: &Model) -> Vec<Role> {
+    model
+        .circuit
+        .pneumatic_nodes
+        .iter()
+        .map(|n| match n.causality {
+            NodeCausality::Effort(r) if model.circuit.instances[r.block].block.states().is_empty() => Role::Source { block: r.block },
+            NodeCausality::Effort(r) => Role::Capacity { block: r.block },
+            NodeCausality::Junction => Role::Passage,
+        })
+        .collect()
+}
+
+/// Width of the widest path (the largest bottleneck flow) from `start` to
+/// every node along `edges`, not passing through sources; 0 if unreachable.
+fn widest(start: usize, edges: &[Vec<(usize, f64)>], roles: &[Role]) -> Vec<f64> {
+    #[derive(PartialEq)]
+    struct Item(f64, usize);
+    impl Eq for Item {}
+    impl PartialOrd for Item {
+        fn partial_cmp(&self, o: &Self) -> Option<std::cmp::Ordering> {
+            Some(self.cmp(o))
+        }
+    }
+    impl Ord for Item {
+        fn cmp(&self, o: &Self) -> std::cmp::Ordering {
+            self.0.total_cmp(&o.0)
+        }
+    }
+    let mut width = vec![0.0; edges.len()];
+    width[start] = f64::INFINITY;
+    let mut heap = std::collections::BinaryHeap::from([Item(f64::INFINITY, start)]);
+    while let Some(Item(w, n)) = heap.pop() {
+        if w < width[n] || (n != start && matches!(roles[n], Role::Source { .. })) {
+            continue;
+        }
+        for &(m, e) in &edges[n] {
+            let through = w.min(e);
+            if through > width[m] {
+                width[m] = through;
+                heap.push(Item(through, m));
+            }
+        }
+    }
+    width
+}
+
+fn reversed(edges: &[Vec<(usize, f64)>]) -> Vec<Vec<(usize, f64)>> {
+    let mut rev = vec![Vec::new(); edges.len()];
+    for (a, targets) in edges.iter().enumerate() {
+        for &(b, w) in targets {
+            rev[b].push((a, w));
+        }
+    }
+    rev
+}
+
+/// A path this many times narrower than the widest one to another pressure
+/// level (a seal leak, a bleed) does not decide the rest pressure.
+pub const DOMINANCE: f64 = 100.0;
+
+fn set_pressures(model: &mut Model, edges: &[Vec<(usize, f64)>], report: &mut RestReport) -> Result<(), RestError> {
+    let roles = roles(model);
+    let back = reversed(edges);
+    let sources: Vec<(usize, usize)> =
+        roles.iter().enumerate().filter_map(|(n, r)| if let Role::Source { block } = r { Some((n, *block)) } else { None }).collect();
+    // fill[s][n]: widest path for gas from source s to n; drain[s][n]: from n to s
+    let fill: Vec<Vec<f64>> = sources.iter().map(|&(n, _)| widest(n, edges, &roles)).collect();
+    let drain: Vec<Vec<f64>> = sources.iter().map(|&(n, _)| widest(n, &back, &roles)).collect();
+    let node_gas = model.node_gas.clone();
+    let mut dividers = Vec::new();
+    for (node, role) in roles.iter().enumerate() {
+        let Role::Capacity { block } = *role else { continue };
+        let free = model.circuit.instances[block].block.free_initial();
+        if !free.pressure && !free.temperature {
+            continue;
+        }
+        let id = model.circuit.instances[block].id.clone();
+        let given = node_gas[node];
+        // (source block, its state, fill width, drain width) of every source linked to this chamber
+        let linked: Vec<(usize, GasState, f64, f64)> = sources
+            .iter()
+            .enumerate()
+            .filter(|&(k, _)| fill[k][node] > 0.0 || drain[k][node] > 0.0)
+            .map(|(k, &(snode, sblock))| (sblock, node_gas[snode], fill[k][node], drain[k][node]))
+            .collect();
+        if linked.is_empty() {
+            continue; // a closed volume keeps its given value
+        }
+        // the pressure level reached through the widest path decides, unless another
+        // level is reached through a path of comparable width (a flow divider)
+        let width = |l: &(usize, GasState, f64, f64)| l.2.max(l.3);
+        let best = linked.iter().max_by(|a, b| width(a).total_cmp(&width(b))).map(|l| l.1).unwrap_or(given);
+        let same_level = |s: &GasState| (s.p - best.p).abs() <= 1e-9 * best.p;
+        let rival = linked.iter().filter(|l| !same_level(&l.1)).map(width).fold(0.0, f64::max);
+        let level: Vec<&(usize, GasState, f64, f64)> = linked.iter().filter(|l| same_level(&l.1)).collect();
+        let dominant = rival * DOMINANCE <= level.iter().map(|l| width(l)).fold(0.0, f64::max);
+        let names: Vec<String> = level.iter().map(|l| model.circuit.instances[l.0].id.clone()).collect();
+        let mut reason = format!("open to {}", names.join(" and "));
+        if rival > 0.0 && dominant {
+            let others: Vec<String> =
+                linked.iter().filter(|l| !same_level(&l.1)).map(|l| model.circuit.instances[l.0].id.clone()).collect();
+            reason.push_str(&format!(" (a path over {DOMINANCE} times narrower to {} is neglected)", others.join(", ")));
+        }
+        let t_level = level.iter().map(|l| l.1.t).sum::<f64>() / level.len() as f64;
+        if !free.pressure {
+            // the pressure is given: only the temperature of the dominant level is taken
+            if dominant {
+                model.circuit.instances[block].block.set_initial_gas(given.p, t_level);
+                report.values.push(RestValue { id, param: "T0", value: t_level, reason });
+            }
+            continue;
+        }
+        if !dominant {
+            // gas flows through it between two pressure levels: a flow equilibrium
+            dividers.push(block);
+            continue;
+        }
+        let fills = level.iter().any(|l| l.2 > 0.0);
+        let drains = level.iter().any(|l| l.3 > 0.0);
+        // both ways: always; one way: only towards the source's level
+        let takes_source = match (fills, drains) {
+            (true, true) => true,
+            (true, false) => given.p < best.p,
+            (false, true) => given.p > best.p,
+            (false, false) => false,
+        };
+        if !takes_source {
+            continue;
+        }
+        let t = if free.temperature { t_level } else { given.t };
+        model.circuit.instances[block].block.set_initial_gas(best.p, t);
+        report.values.push(RestValue { id: id.clone(), param: "p0", value: best.p, reason: reason.clone() });
+        if free.temperature {
+            report.values.push(RestValue { id, param: "T0", value: t, reason });
+        }
+    }
+    if !dividers.is_empty() {
+        steady_flow(model, &dividers, report)?;
+    }
+    Ok(())
+}
+
+/// The model at rest seen by the integrator (pistons held: v = 0, ẍ = 0).
+struct AtRest<'a> {
+    model: &'a mut Model,
+}
+
+impl ode::OdeSystem for AtRest<'_> {
+    fn dim(&self) -> usize {
+        self.model.dim()
+    }
+    fn rhs(&mut self, t: f64, y: &[f64], dydt: &mut [f64]) -> Result<(), ode::RhsError> {
+        match self.model.eval(t, y, Some(dydt), None) {
+            Ok(()) => Ok(()),
+            Err(ModelError::NonPhysical { .. }) => {
+                dydt.fill(f64::NAN); // reject the step, retry smaller
+                Ok(())
+            }
+            Err(e) => Err(ode::RhsError(e.to_string())),
+        }
+    }
+    fn n_quadrature(&self) -> usize {
+        crate::model::N_QUADRATURE
+    }
+    fn autonomous(&self) -> bool {
+        true
+    }
+}
+
+/// Longest time [s] the gas is given to settle into a flow equilibrium.
+const SETTLE_LIMIT: f64 = 1e5;
+
+/// Chambers through which gas flows between two pressure levels at rest
+/// take the pressure and temperature of the flow equilibrium, found by
+/// integrating the circuit at rest (controllers released, pistons held)
+/// until no pressure changes any more.
+fn steady_flow(model: &mut Model, dividers: &[usize], report: &mut RestReport) -> Result<(), RestError> {
+    use ode::Integrator;
+    let mut y = model.initial_state();
+    let scales = model.state_scales(&y);
+    let n = model.dim();
+    let mut atol: Vec<f64> = scales.iter().map(|s| 1e-10 * s).collect();
+    for a in atol[n - crate::model::N_QUADRATURE..].iter_mut() {
+        *a = 1e30;
+    }
+    let opts = ode::Options { rtol: 1e-10, atol, h_init: None, h_max: f64::INFINITY, h_min: 0.0, max_steps: 200_000, root_tol: 1e-10 };
+    let mut integrator = ode::Rosenbrock::new(opts, n);
+    let nodes: Vec<usize> = dividers
+        .iter()
+        .map(|&b| {
+            model
+                .circuit
+                .pneumatic_nodes
+                .iter()
+                .position(|pn| matches!(pn.causality, NodeCausality::Effort(r) if r.block == b))
+                .unwrap_or(0)
+        })
+        .collect();
+    let pressures = |model: &Model| nodes.iter().map(|&k| model.node_gas[k].p).collect::<Vec<f64>>();
+    let mut t = 0.0;
+    let mut last = pressures(model);
+    let mut t_stop = 1e-3;
+    let mut converged = false;
+    while t_stop <= SETTLE_LIMIT {
+        let mut sys = AtRest { model };
+        integrator
+            .advance(&mut sys, &mut t, &mut y, t_stop, &mut |_| {})
+            .map_err(|e| RestError::Undetermined { id: sys.model.circuit.instances[dividers[0]].id.clone(), message: e.to_string() })?;
+        model.eval(t, &y, None, None)?;
+        let now = pressures(model);
+        let settled = now.iter().zip(&last).all(|(a, b)| (a - b).abs() <= 1e-12 * a.abs());
+        last = now;
+        if settled && t_stop >= 1.0 {
+            converged = true;
+            break;
+        }
+        t_stop *= 10.0;
+    }
+    if !converged {
+        return Err(RestError::Undetermined {
+            id: model.circuit.instances[dividers[0]].id.clone(),
+            message: format!("gas flowing through it between two pressure levels did not settle within {SETTLE_LIMIT} s; give its p0"),
+        });
+    }
+    for (&b, &k) in dividers.iter().zip(&nodes) {
+        let gas = model.node_gas[k];
+        let free = model.circuit.instances[b].block.free_initial();
+        let id = model.circuit.instances[b].id.clone();
+        let reason = format!("flow equilibrium between sources (settled after {t:.3e} s)");
+        model.circuit.instances[b].block.set_initial_gas(gas.p, gas.t);
+        if free.pressure {
+            report.values.push(RestValue { id: id.clone(), param: "p0", value: gas.p, reason: reason.clone() });
+        }
+        if free.temperature {
+            report.values.push(RestValue { id, param: "T0", value: gas.t, reason });
+        }
+    }
+    Ok(())
+}
+
+fn set_positions(model: &mut Model, report: &mut RestReport) -> Result<(), RestError> {
+    for node in 0..model.circuit.mechanical_nodes.len() {
+        let block = model.circuit.mechanical_nodes[node].inertia.block;
+        if !model.circuit.instances[block].block.free_initial().position {
+            continue;
+        }
+        let y = model.initial_state();
+        model.eval(0.0, &y, None, None)?;
+        let f = model.node_forces[node];
+        let x = model.node_mech[node].x;
+        if f.applied.abs() <= f.breakaway {
+            continue; // held where it is
+        }
+        let id = model.circuit.instances[block].id.clone();
+        let Some(stops) = model.circuit.instances[block].block.stops() else {
+            return Err(RestError::Undetermined {
+                id,
+                message: format!("a net force of {:.1} N moves it and it has no end stop to rest on; give its x0", f.applied),
+            });
+        };
+        let (at, which) = if f.applied > 0.0 { (stops.upper, "upper") } else { (stops.lower, "lower") };
+        model.circuit.instances[block].block.set_initial_position(at);
+        let y = model.initial_state();
+        model.eval(0.0, &y, None, None)?;
+        let g = model.node_forces[node];
+        if g.applied.signum() != f.applied.signum() && g.applied.abs() > g.breakaway {
+            model.circuit.instances[block].block.set_initial_position(x);
+            return Err(RestError::Undetermined {
+                id,
+                message: format!(
+                    "the net force changes sign between the stops ({:.1} N at x = {:.4} m, {:.1} N at the {which} stop): it rests in between; give its x0",
+                    f.applied, x, g.applied
+                ),
+            });
+        }
+        report.values.push(RestValue {
+            id,
+            param: "x0",
+            value: at,
+            reason: format!("net force {:.1} N beyond breakaway {:.1} N pushes it to the {which} stop", f.applied, f.breakaway),
+        });
+    }
+    Ok(())
+}
