@@ -254,6 +254,8 @@ pub struct CycleRecord {
     pub extend: f64,
     /// Retract stroke time, from the retract command back to 0 [s].
     pub retract: f64,
+    /// Time of the retract command [s].
+    pub retract_start: f64,
     /// Whole cycle, including dwells [s].
     pub total: f64,
 }
@@ -410,6 +412,19 @@ pub trait Block: std::fmt::Debug + Send + Sync {
     fn set_initial_gas(&mut self, _p: f64, _t: f64) {}
     /// Set the initial position [m] of an inertia, at rest.
     fn set_initial_position(&mut self, _x: f64) {}
+    /// Running integrals the block keeps for statistics of the run (not read
+    /// by any derivative, so the integrator neither differentiates them nor
+    /// steers its step by them), e.g. the weights of a mean polytropic index.
+    fn quadratures(&self) -> &[OutputSpec] {
+        &[]
+    }
+    /// Rates of the [`Block::quadratures`], given the state derivatives just computed.
+    fn quadrature_rates(&self, _ctx: &Ctx, _balances: &Balances, _derivs: &[f64], _out: &mut [f64]) {}
+    /// Statistics over an interval from the increments of the quadratures
+    /// over it ("n_mean" of a chamber); `None` where undefined.
+    fn quadrature_statistics(&self, _increments: &[f64]) -> Vec<(&'static str, Option<f64>)> {
+        Vec::new()
+    }
     /// Facts to compare with other blocks, each with the index of the port it concerns.
     fn facts(&self) -> Vec<(usize, Fact)> {
         Vec::new()

@@ -42,7 +42,15 @@
 //! - Instantaneous polytropic index, Eq. 22: n = (ṗ/p)/(ρ̇/ρ) with
 //!   ṗ = (∂p/∂ρ)_T ρ̇ + (∂p/∂T)_ρ Ṫ; output `n`.
 //! - Its estimate, Eq. 29/30: n = γ − (R/c_v)·(Ė − ṁ·h + Q_w)/(p(V̇ − ṁ/ρ));
-//!   output `n_est`. Both are undefined (empty in results) when ρ̇ ≈ 0.
+//!   output `n_est` (for a real gas with the isentropic index γ_s and
+//!   (∂p/∂T)_ρ in place of γ and ρR, so that it equals Eq. 22). Both are
+//!   undefined (empty in results) where |ρ̇/ρ| < 0.01 1/s or |n| > 10 (near
+//!   zero flow, or a nearly isochoric process where n runs off to ±∞).
+//! - Mean polytropic index over a stroke (summary, `mean_polytropic_index`):
+//!   n̄ = ∫(ṗ/p)(ρ̇/ρ)dt / ∫(ρ̇/ρ)²dt, the constant index that best fits
+//!   ṗ/p = n ρ̇/ρ over the stroke — Eq. 22 averaged with weight (ρ̇/ρ)², so
+//!   stretches where the density stands still do not count. The two
+//!   integrals are quadratures of the block.
 //! - Helpers: process time O(τ) = V/(γ C p_N) (Eq. 19, see
 //!   [`crate::iso6358::FlowCharacteristic::process_time`]) and the thermal
 //!   boundary-layer width δ = (k τ/(ρ c_p))^½ (Eq. 18, [`boundary_layer_width`]).
@@ -98,8 +106,24 @@ pub const OUTPUTS: &[OutputSpec] = &[
     OutputSpec { name: "n_est", unit: "1" },
 ];
 
-/// Relative density rate |ρ̇/ρ| [1/s] below which the polytropic index is reported undefined.
-const N_UNDEFINED_BELOW: f64 = 1e-6;
+/// Relative density rate |ρ̇/ρ| [1/s] below which the instantaneous
+/// polytropic index is reported undefined: where the density changes by less
+/// than 1 % per second, Eq. 22 divides two vanishing rates and its value
+/// (±100 and more around zero flow) says nothing about the process.
+const N_UNDEFINED_BELOW: f64 = 1e-2;
+
+/// Largest |n| reported: beyond it the process is isochoric in all but name
+/// (the density stands still while the pressure moves; the paper's "n2
+/// grows up to infinite", §3) and the index is reported undefined.
+const N_REPORTED_UP_TO: f64 = 10.0;
+
+/// The index `n` if it is a meaningful polytropic index (see the two limits above).
+fn reported(n: f64, rel_drho: f64) -> Option<f64> {
+    (rel_drho.abs() >= N_UNDEFINED_BELOW && n.abs() <= N_REPORTED_UP_TO && n.is_finite()).then_some(n)
+}
+
+/// Quadratures of the mean polytropic index: ∫(ρ̇/ρ)² dt and ∫(ṗ/p)(ρ̇/ρ) dt.
+const QUADRATURES: &[OutputSpec] = &[OutputSpec { name: "w_poly", unit: "1/s" }, OutputSpec { name: "wn_poly", unit: "1/s" }];
 
 /// A variable-volume pneumatic chamber.
 #[derive(Debug, Clone, PartialEq)]
@@ -210,10 +234,16 @@ impl Chamber {
         }
         let p = gas.pressure(rho, t);
         let dp = gas.dp_drho(rho, t) * rel_drho * rho + gas.t_dp_dt(rho, t) / t * r.dt;
-        Some((dp / p) / rel_drho)
+        reported((dp / p) / rel_drho, rel_drho)
     }
 
     /// Estimate of the polytropic index, Eq. 29 (inflow) / Eq. 30 (outflow); `None` when ρ̇ ≈ 0.
+    ///
+    /// For a real gas (p = p(ρ, T)) the paper's Eq. 26 becomes, with the
+    /// energy balance Eq. 13 (derivation in docs/validation.md):
+    /// n = γ_s − (∂p/∂T)_ρ·(Ė − ṁh + Q_w) / (ρ c_v p (V̇ − ṁ/ρ)), where
+    /// γ_s = (ρ/p)(∂p/∂ρ)_T + T(∂p/∂T)_ρ² / (ρ p c_v) is the isentropic
+    /// index. For an ideal gas (∂p/∂T)_ρ = ρR, γ_s = γ and this is Eq. 29/30.
     pub fn polytropic_estimate(&self, gas: &dyn gas::GasModel, m: f64, t: f64, x: f64, r: &ChamberRates) -> Option<f64> {
         let v = self.volume(x);
         let rho = m / v;
@@ -223,8 +253,19 @@ impl Chamber {
         }
         let p = gas.pressure(rho, t);
         let cv = gas.cv(rho, t);
-        let denom = p * (r.dv - r.dm / rho);
-        Some(gas.gamma(rho, t) - gas.r() / cv * (r.e_excess + r.q_wall) / denom)
+        let dp_dt = gas.t_dp_dt(rho, t) / t; // (∂p/∂T)_ρ
+        let gamma_s = rho / p * gas.dp_drho(rho, t) + t * dp_dt * dp_dt / (rho * p * cv);
+        let denom = rho * cv * p * (r.dv - r.dm / rho);
+        reported(gamma_s - dp_dt * (r.e_excess + r.q_wall) / denom, rel_drho)
+    }
+
+    /// Relative rates (ṗ/p, ρ̇/ρ) [1/s] from the state and its derivatives.
+    pub fn relative_rates(&self, gas: &dyn gas::GasModel, m: f64, t: f64, x: f64, r: &ChamberRates) -> (f64, f64) {
+        let rho = m / self.volume(x);
+        let rel_drho = (r.dm - rho * r.dv) / m;
+        let p = gas.pressure(rho, t);
+        let dp = gas.dp_drho(rho, t) * rel_drho * rho + gas.t_dp_dt(rho, t) / t * r.dt;
+        (dp / p, rel_drho)
     }
 }
 
@@ -310,6 +351,30 @@ impl Block for Chamber {
     }
     fn outputs(&self) -> &[OutputSpec] {
         OUTPUTS
+    }
+    fn quadratures(&self) -> &[OutputSpec] {
+        QUADRATURES
+    }
+    /// Integrands of the mean polytropic index: (ρ̇/ρ)² and (ṗ/p)(ρ̇/ρ).
+    fn quadrature_rates(&self, ctx: &Ctx, _balances: &Balances, derivs: &[f64], out: &mut [f64]) {
+        let (m, t) = (ctx.states[0], ctx.states[1]);
+        let mech = self.position(ctx.mechanical);
+        let rho = m / self.volume(mech.x).max(f64::MIN_POSITIVE);
+        let dv = self.sigma * self.area * mech.v;
+        let rel_drho = (derivs[0] - rho * dv) / m;
+        let p = ctx.pneumatic[0].p;
+        let rel_dp = (ctx.gas.dp_drho(rho, t) * rel_drho * rho + ctx.gas.t_dp_dt(rho, t) / t * derivs[1]) / p;
+        out[0] = rel_drho * rel_drho;
+        out[1] = rel_dp * rel_drho;
+    }
+    /// Mean polytropic index over an interval: the constant n that best
+    /// fits ṗ/p = n·ρ̇/ρ over it in least squares,
+    /// n̄ = ∫(ṗ/p)(ρ̇/ρ)dt / ∫(ρ̇/ρ)²dt, i.e. the instantaneous index of
+    /// Eq. 22 averaged with weight (ρ̇/ρ)². Undefined if the density hardly
+    /// changed (∫(ρ̇/ρ)²dt < 1e-6).
+    fn quadrature_statistics(&self, inc: &[f64]) -> Vec<(&'static str, Option<f64>)> {
+        let n = (inc[0] > 1e-6).then(|| inc[1] / inc[0]);
+        vec![("n_mean", n.filter(|v| v.is_finite()))]
     }
     fn record(&self, ctx: &Ctx, balances: &Balances, _derivs: &[f64], out: &mut [Option<f64>]) {
         let (m, t) = (ctx.states[0], ctx.states[1]);

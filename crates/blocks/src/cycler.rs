@@ -177,8 +177,13 @@ impl Block for Cycler {
                 outcome.note = Some("back at the start".into());
                 let finished = self.cycles > 0 && self.done >= self.cycles;
                 let next = if finished { t } else { t + self.dwell_retracted };
-                outcome.cycle =
-                    Some(CycleRecord { start: self.cycle_start, extend: self.extend_time, retract, total: next - self.cycle_start });
+                outcome.cycle = Some(CycleRecord {
+                    start: self.cycle_start,
+                    extend: self.extend_time,
+                    retract,
+                    retract_start: self.retract_start,
+                    total: next - self.cycle_start,
+                });
                 if finished {
                     self.phase = Phase::Done;
                 } else if self.dwell_retracted > 0.0 {

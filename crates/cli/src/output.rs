@@ -140,10 +140,19 @@ pub fn summary(result: &SimResult, model_name: &str, columns: &[usize]) -> serde
         .collect();
     let pressures: serde_json::Map<String, serde_json::Value> =
         result.final_state.pressures.iter().map(|(id, p)| (format!("{id}.p"), json!(p))).collect();
+    // "n_mean" of every chamber, per stroke, one value per cycle
+    let mut polytropic = serde_json::Map::new();
+    for st in result.stroke_statistics.iter().filter(|s| s.name == "n_mean") {
+        let entry = polytropic.entry(st.id.clone()).or_insert_with(|| json!({"extend": [], "retract": []}));
+        if let Some(list) = entry[st.stroke].as_array_mut() {
+            list.push(json!(st.value));
+        }
+    }
     json!({
         "model": model_name,
         "t_final_s": result.t_final,
         "cycles": cycles,
+        "mean_polytropic_index": polytropic,
         "initial_rest_state": rest,
         "final_state": {"masses": masses, "pressures_Pa": pressures},
         "signals": signals,

@@ -885,6 +885,7 @@ mod tests {
         solve::SimResult {
             rest: Default::default(),
             final_state: Default::default(),
+            stroke_statistics: Vec::new(),
             columns: vec!["head.p".into(), "rod.p".into(), "head.T".into(), "piston.x".into(), "head.n".into()],
             units: vec!["Pa".into(), "Pa".into(), "K".into(), "m".into(), "1".into()],
             times,

@@ -74,6 +74,15 @@ pub fn run(a: &SimulateArgs) -> Result<(), CliError> {
     let res = &r.result;
     for (i, c) in res.cycles.iter().enumerate() {
         println!("cycle {}: extend {:.4} s, retract {:.4} s, total {:.4} s", i + 1, c.extend, c.retract, c.total);
+        let n: Vec<String> = res
+            .stroke_statistics
+            .iter()
+            .filter(|s| s.cycle == i + 1 && s.name == "n_mean")
+            .map(|s| format!("{} {} {}", s.id, s.stroke, s.value.map_or("-".to_string(), |v| format!("{v:.3}"))))
+            .collect();
+        if !n.is_empty() {
+            println!("  mean polytropic index: {}", n.join(", "));
+        }
     }
     println!(
         "t = {:.4} s, {} steps ({} rejected), {} evaluations, mass balance residual {:.1e}, energy residual {:.1e}",

@@ -159,7 +159,11 @@ fn slots(flat: &FlatNetlist, warnings: &mut Vec<Warning>) -> Result<Vec<Slot>, G
                     (Source::Expr { expr, text: text.to_string(), scope: p.scope.clone() }, None, String::new())
                 }
                 None => {
-                    let q = literal(t).map_err(|e| param_error(&p.origin, &subject, e))?;
+                    let mut q = literal(t).map_err(|e| param_error(&p.origin, &subject, e))?;
+                    if q.value.is_infinite() && q.dim == dim::DIMENSIONLESS {
+                        // "inf" fits any dimension: keep the one the file gave
+                        q.dim = p.declared_dim.unwrap_or(dim::DIMENSIONLESS);
+                    }
                     (Source::Literal(q.value), Some(q.dim), literal_unit(t))
                 }
             },
@@ -289,6 +293,19 @@ pub fn resolve(flat: &FlatNetlist) -> Result<Resolved, GraphError> {
                 Quantity { value: *x, dim: d }
             }
             Source::NotNumeric(_) => continue,
+            Source::Expr { text, .. } if refs[i].len() == 1 && refs[i].contains_key(text.as_str()) => {
+                // "= name": the value itself, whatever it is ("inf" included)
+                let j = refs[i][text.as_str()];
+                let q = values[j].ok_or_else(|| {
+                    let what = match &slots[j].source {
+                        Source::NotNumeric(what) => what,
+                        _ => "not a number",
+                    };
+                    param_error(&slot.origin, &slot.subject, format!("\"{}\" is {what}, not a number", escape(text)))
+                })?;
+                check_dimension(slot, text, q)?;
+                q
+            }
             Source::Expr { expr, text, .. } => {
                 let mut failed: Option<String> = None;
                 let q = expr
@@ -307,22 +324,7 @@ pub fn resolve(flat: &FlatNetlist) -> Result<Resolved, GraphError> {
                         let why = failed.take().unwrap_or_else(|| e.to_string());
                         param_error(&slot.origin, &slot.subject, format!("\"{}\": {why}", escape(text)))
                     })?;
-                if let Some((want, kind)) = slot.expected {
-                    if q.dim != want {
-                        return Err(param_error(
-                            &slot.origin,
-                            &slot.subject,
-                            format!("\"= {}\" is {}, but the parameter is {}", escape(text), article(q.dim), article(want)),
-                        ));
-                    }
-                    if kind == ParamKind::Count && (q.value < 0.0 || q.value.fract() != 0.0) {
-                        return Err(param_error(
-                            &slot.origin,
-                            &slot.subject,
-                            format!("\"= {}\" = {} is not a whole number >= 0", escape(text), q.value),
-                        ));
-                    }
-                }
+                check_dimension(slot, text, q)?;
                 q
             }
         };
@@ -349,6 +351,22 @@ pub fn resolve(flat: &FlatNetlist) -> Result<Resolved, GraphError> {
         );
     }
     Ok(out)
+}
+
+/// A component value must have the dimension its block declares (a count: a whole number).
+fn check_dimension(slot: &Slot, text: &str, q: Quantity) -> Result<(), GraphError> {
+    let Some((want, kind)) = slot.expected else { return Ok(()) };
+    if q.dim != want && !(q.value.is_infinite() && q.dim == dim::DIMENSIONLESS) {
+        return Err(param_error(
+            &slot.origin,
+            &slot.subject,
+            format!("\"= {}\" is {}, but the parameter is {}", escape(text), article(q.dim), article(want)),
+        ));
+    }
+    if kind == ParamKind::Count && (q.value < 0.0 || q.value.fract() != 0.0) {
+        return Err(param_error(&slot.origin, &slot.subject, format!("\"= {}\" = {} is not a whole number >= 0", escape(text), q.value)));
+    }
+    Ok(())
 }
 
 fn article(d: Dimension) -> String {
@@ -440,6 +458,18 @@ pub fn concrete(flat: &FlatNetlist) -> Result<(FlatNetlist, Resolved), GraphErro
 /// "= 2 * 3 mm" is not a literal), in SI with its dimension.
 pub fn literal(text: &str) -> Result<Quantity, String> {
     let t = text.trim();
+    // "inf" (an adiabatic wall's tau_thermal), optionally with a unit: "inf s"
+    for word in ["infinity", "inf", "∞"] {
+        if let Some(rest) = t.strip_prefix(word) {
+            let unit = rest.trim();
+            if unit.is_empty() {
+                return Ok(Quantity { value: f64::INFINITY, dim: dim::DIMENSIONLESS });
+            }
+            if let Ok(u) = units::parse_unit(unit) {
+                return Ok(Quantity { value: f64::INFINITY, dim: u.dimension });
+            }
+        }
+    }
     // a number followed by a unit text, which may have several words ("50 N s/m")
     let split = t
         .char_indices()

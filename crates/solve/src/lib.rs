@@ -17,4 +17,4 @@ pub mod simulate;
 pub use model::{Model, ModelError};
 pub use rest::{RestError, RestReport, RestValue};
 pub use settings::options_from;
-pub use simulate::{simulate, Balance, EventLog, FinalState, MassState, SimOptions, SimResult, SolveError};
+pub use simulate::{simulate, Balance, EventLog, FinalState, MassState, SimOptions, SimResult, SolveError, StrokeStatistic};

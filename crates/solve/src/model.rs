@@ -1,10 +1,12 @@
 //! The flattened model: one state vector, one right-hand side, root
 //! functions — built from a [`graph::Circuit`] without naming any block type.
 //!
-//! State vector layout: the blocks' states in block order, then four
-//! quadrature states used only for the balance report:
+//! State vector layout: the blocks' states in block order, then the blocks'
+//! own quadratures ([`Block::quadratures`], e.g. the integrals behind a
+//! chamber's mean polytropic index) in block order, then four quadrature
+//! states used only for the balance report:
 //! [∫ṁ_boundary, ∫Ė_boundary, ∫Q_wall, ∫p·V̇] (boundary = flows entering
-//! through sources). Root functions: the blocks' event functions in block
+//! through sources). No derivative reads a quadrature. Root functions: the blocks' event functions in block
 //! order, then [`mechanics::N_ROOTS`] per mechanical node.
 //!
 //! One evaluation runs the phases of [`blocks::block`] in order:
@@ -26,6 +28,8 @@ pub const N_QUADRATURE: usize = 4;
 #[derive(Debug, Clone)]
 pub(crate) struct Slot {
     pub states: Range<usize>,
+    /// The block's own quadratures in the state vector.
+    pub quad: Range<usize>,
     /// Node of each pneumatic port, in the block's pneumatic-port order.
     pub pneu_nodes: Vec<usize>,
     pub pneu_is_effort: Vec<bool>,
@@ -56,8 +60,10 @@ pub struct Model {
     pub circuit: Circuit,
     pub gas: Arc<dyn GasModel>,
     pub(crate) slots: Vec<Slot>,
-    /// Number of block states (quadrature excluded).
+    /// Number of block states (quadratures excluded).
     pub n_states: usize,
+    /// Number of the blocks' own quadratures (after the block states).
+    pub n_block_quadratures: usize,
     pub n_block_events: usize,
     pub n_signals: usize,
     pub n_outputs: usize,
@@ -137,6 +143,7 @@ impl Model {
             let blank = GasState { p: 0.0, t: 0.0, rho: 0.0, h: 0.0 };
             slots.push(Slot {
                 states: ns..ns + n_states,
+                quad: 0..0,
                 has_flow: pneu_is_effort.iter().any(|e| !e),
                 has_effort: pneu_is_effort.iter().any(|e| *e),
                 gas: vec![blank; pneu_nodes.len()],
@@ -160,6 +167,13 @@ impl Model {
             nev += n_events;
             nout += n_rec;
         }
+        // block quadratures follow all block states
+        let mut nq = 0;
+        for (bi, inst) in circuit.instances.iter().enumerate() {
+            let k = inst.block.quadratures().len();
+            slots[bi].quad = ns + nq..ns + nq + k;
+            nq += k;
+        }
         let n_nodes = circuit.pneumatic_nodes.len();
         let mut junction_ports = vec![Vec::new(); n_nodes];
         for (node, pn) in circuit.pneumatic_nodes.iter().enumerate() {
@@ -176,6 +190,7 @@ impl Model {
             gas,
             slots,
             n_states: ns,
+            n_block_quadratures: nq,
             n_block_events: nev,
             n_signals: nsig,
             n_outputs: nout,
@@ -196,7 +211,17 @@ impl Model {
 
     /// Total length of the ODE state vector (block states plus quadratures).
     pub fn dim(&self) -> usize {
-        self.n_states + N_QUADRATURE
+        self.n_states + self.n_block_quadratures + N_QUADRATURE
+    }
+
+    /// Number of trailing quadrature components (block quadratures and balances).
+    pub fn n_quadratures(&self) -> usize {
+        self.n_block_quadratures + N_QUADRATURE
+    }
+
+    /// Names ("head.w_poly") of the blocks' quadratures, in state order.
+    pub fn quadrature_names(&self) -> Vec<String> {
+        self.circuit.instances.iter().flat_map(|i| i.block.quadratures().iter().map(move |q| format!("{}.{}", i.id, q.name))).collect()
     }
 
     /// Number of root functions.
@@ -260,8 +285,10 @@ impl Model {
             junction_guess,
             junction_step,
             at_rest,
+            n_states,
             ..
         } = self;
+        let n_states = *n_states;
 
         // 1. kinematics of inertias
         for (node, mn) in circuit.mechanical_nodes.iter().enumerate() {
@@ -381,12 +408,17 @@ impl Model {
         if let Some(dy) = dy {
             let nq = dy.len() - N_QUADRATURE;
             let mut quad = [0.0; N_QUADRATURE];
+            let (dstates, dquad) = dy.split_at_mut(n_states);
             for (bi, slot) in slots.iter().enumerate() {
                 let block = &circuit.instances[bi].block;
                 let ctx = Ctx { t, gas, states: &y[slot.states.clone()], pneumatic: &slot.gas, mechanical: &slot.mech, signals: &slot.sig };
                 let bal = Balances { pneumatic: &slot.bal_flow, mechanical: &slot.motion };
                 if !slot.states.is_empty() {
-                    block.derivatives(&ctx, &bal, &mut dy[slot.states.clone()]);
+                    block.derivatives(&ctx, &bal, &mut dstates[slot.states.clone()]);
+                    if !slot.quad.is_empty() {
+                        let out = &mut dquad[slot.quad.start - n_states..slot.quad.end - n_states];
+                        block.quadrature_rates(&ctx, &bal, &dstates[slot.states.clone()], out);
+                    }
                     let ex = block.exchange(&ctx, &bal);
                     quad[2] += ex.heat;
                     quad[3] += ex.work;

@@ -328,7 +328,7 @@ impl ode::OdeSystem for AtRest<'_> {
         }
     }
     fn n_quadrature(&self) -> usize {
-        crate::model::N_QUADRATURE
+        self.model.n_quadratures()
     }
     fn autonomous(&self) -> bool {
         true
@@ -348,7 +348,7 @@ fn steady_flow(model: &mut Model, dividers: &[usize], report: &mut RestReport) -
     let scales = model.state_scales(&y);
     let n = model.dim();
     let mut atol: Vec<f64> = scales.iter().map(|s| 1e-10 * s).collect();
-    for a in atol[n - crate::model::N_QUADRATURE..].iter_mut() {
+    for a in atol[n - model.n_quadratures()..].iter_mut() {
         *a = 1e30;
     }
     let opts = ode::Options { rtol: 1e-10, atol, h_init: None, h_max: f64::INFINITY, h_min: 0.0, max_steps: 200_000, root_tol: 1e-10 };

@@ -171,6 +171,23 @@ pub struct SimResult {
     pub rest: crate::rest::RestReport,
     /// Where the moving masses and chamber pressures ended.
     pub final_state: FinalState,
+    /// Statistics of blocks over each stroke of each completed cycle (the
+    /// mean polytropic index of every chamber, say).
+    pub stroke_statistics: Vec<StrokeStatistic>,
+}
+
+/// A statistic of one block over one stroke.
+#[derive(Debug, Clone, PartialEq)]
+pub struct StrokeStatistic {
+    /// Cycle number, from 1.
+    pub cycle: usize,
+    /// "extend" or "retract".
+    pub stroke: &'static str,
+    /// Block id ("head").
+    pub id: String,
+    /// Statistic name ("n_mean").
+    pub name: &'static str,
+    pub value: Option<f64>,
 }
 
 impl SimResult {
@@ -233,7 +250,7 @@ impl OdeSystem for System<'_> {
         }
     }
     fn n_quadrature(&self) -> usize {
-        N_QUADRATURE
+        self.model.n_quadratures()
     }
     fn autonomous(&self) -> bool {
         !self.model.circuit.instances.iter().any(|i| i.block.time_dependent())
@@ -264,8 +281,8 @@ pub fn simulate(model: &mut Model, opts: &SimOptions) -> Result<SimResult, Solve
     let n = model.dim();
     let scales = model.state_scales(&y);
     let mut atol: Vec<f64> = scales.iter().map(|s| opts.atol * s).collect();
-    for a in atol[n - N_QUADRATURE..].iter_mut() {
-        *a = 1e30; // balance quadratures do not steer the step size
+    for a in atol[n - model.n_quadratures()..].iter_mut() {
+        *a = 1e30; // quadratures (balances, statistics) do not steer the step size
     }
     let options =
         Options { rtol: opts.rtol, atol, h_init: None, h_max: opts.max_step, h_min: 1e-14, max_steps: 50_000_000, root_tol: 1e-12 };
@@ -284,7 +301,11 @@ pub fn simulate(model: &mut Model, opts: &SimOptions) -> Result<SimResult, Solve
         rhs_evaluations: 0,
         rest,
         final_state: FinalState::default(),
+        stroke_statistics: Vec::new(),
     };
+    // the blocks' quadratures at t = 0 and after every event, to difference over strokes
+    let quad = model.n_states..model.n_states + model.n_block_quadratures;
+    let mut snapshots: Vec<(f64, Vec<f64>)> = Vec::new();
 
     // initial modes: at rest where v = 0, then break away if the forces say so
     model.eval(t, &y, None, None)?;
@@ -297,6 +318,7 @@ pub fn simulate(model: &mut Model, opts: &SimOptions) -> Result<SimResult, Solve
     model.eval(t, &y, None, None)?;
     let initial = model.stored(t, &y);
     record(model, t, &y, &mut result)?;
+    snapshots.push((t, y[quad.clone()].to_vec()));
 
     let mut next_sample = opts.sample_interval;
     let mut n_events = 0usize;
@@ -371,6 +393,7 @@ pub fn simulate(model: &mut Model, opts: &SimOptions) -> Result<SimResult, Solve
             settle(model, t, &mut y, &mut result.events)?;
             integrator.reset();
             record(model, t, &y, &mut result)?;
+            snapshots.push((t, y[quad.clone()].to_vec()));
         }
         if let Some(n) = opts.cycles {
             if result.cycles.len() as u64 >= n {
@@ -403,10 +426,36 @@ pub fn simulate(model: &mut Model, opts: &SimOptions) -> Result<SimResult, Solve
         energy_residual: (last.energy - initial.energy - energy_in - heat_in + work_out) / energy_scale,
     };
     result.final_state = final_state(model);
+    result.stroke_statistics = stroke_statistics(model, &result.cycles, &snapshots);
     result.t_final = t;
     result.stats = integrator.stats();
     result.rhs_evaluations = model.evaluations;
     Ok(result)
+}
+
+/// Block statistics over the extend and retract strokes of every cycle, from
+/// the quadratures recorded at the events that bound them.
+fn stroke_statistics(model: &Model, cycles: &[CycleRecord], snapshots: &[(f64, Vec<f64>)]) -> Vec<StrokeStatistic> {
+    let at = |t: f64| snapshots.iter().find(|(ts, _)| (ts - t).abs() <= 1e-9 * t.abs().max(1.0)).map(|(_, v)| v.as_slice());
+    let mut out = Vec::new();
+    for (k, c) in cycles.iter().enumerate() {
+        let strokes = [("extend", c.start, c.start + c.extend), ("retract", c.retract_start, c.retract_start + c.retract)];
+        for (stroke, t0, t1) in strokes {
+            let (Some(a), Some(b)) = (at(t0), at(t1)) else { continue };
+            for (bi, slot) in model.slots.iter().enumerate() {
+                if slot.quad.is_empty() {
+                    continue;
+                }
+                let base = model.n_states;
+                let inc: Vec<f64> = slot.quad.clone().map(|i| b[i - base] - a[i - base]).collect();
+                let inst = &model.circuit.instances[bi];
+                for (name, value) in inst.block.quadrature_statistics(&inc) {
+                    out.push(StrokeStatistic { cycle: k + 1, stroke, id: inst.id.clone(), name, value });
+                }
+            }
+        }
+    }
+    out
 }
 
 fn handle_block_event(model: &mut Model, bi: usize, kind: EventKind, t: f64, y: &[f64], result: &mut SimResult) -> Result<(), SolveError> {
