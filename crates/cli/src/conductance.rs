@@ -4,19 +4,40 @@
 //! Reads a CSV with a header naming the columns `t` [s] and `p` [Pa, absolute]
 //! and optionally `T` [K] (any order, SI units, `#` comment lines allowed),
 //! then runs the two estimates of [`identify::discharge`]:
+//! (b) the estimate: a least-squares fit of C, b and p0 of the simulated
+//! discharge (pneumo chamber with wall heat exchange, Eq. 8 and 17, and an
+//! ISO 6358 conductance, Eq. 33–35) to the whole trace, with the thermal
+//! model chosen by `--thermal` / `--tau-thermal` or, by default, fitted
+//! (τ_T free, to p and to the `T` column when there is one) and reported;
 //! (a) the unloading time τ_U of the choked part of the trace and paper
-//! Eq. 36, C = K_T0·V/(γ·p_N·τ_U); (b) a least-squares fit of C, b and p0 of
-//! the simulated discharge (pneumo chamber + ISO 6358 conductance, adiabatic,
-//! Eq. 33–35) to the whole trace. Prints one block (or JSON with `--json`)
-//! with standard errors and the ISO 6358 choked flow each estimate implies.
+//! Eq. 36, C = K_T0·V/(γ·p_N·τ_U) — the adiabatic limit (n = 1 in place of γ
+//! when (b) finds the discharge isothermal). Prints one block (or JSON with
+//! `--json`) with standard errors, the thermal model and the misfit, and the
+//! ISO 6358 choked flow each estimate implies; warnings (a misfit well above
+//! the noise, τ_T not identifiable) go to stderr, one line each.
 //!
 //! T0 is taken from `--T0`, else from the first `T` sample, else 293.15 K.
-//! Errors name the file and the line at fault.
+//! p_atm from `--p-atm`, else fitted with C and b (started at 1.01325 bar,
+//! or at the end of the trace when it ends lower). Errors name the file and
+//! the line at fault.
 
 use crate::error::CliError;
-use identify::discharge::{analyse, AnalysisOptions, DischargeData, DischargeReport, DischargeSetup};
+use identify::discharge::{
+    analyse, p_atm_start, AnalysisOptions, DischargeData, DischargeReport, DischargeSetup, ThermalModel, ThermalOption,
+};
 use std::path::{Path, PathBuf};
 use units::dim;
+
+/// Thermal model named on the command line.
+#[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ThermalArg {
+    /// Fit τ_T (to p, and to T when the data have it) and keep a limit unless the data reject it.
+    Auto,
+    /// τ_T = ∞ (the assumption of Eq. 36).
+    Adiabatic,
+    /// τ_T → 0: the gas stays at the wall temperature.
+    Isothermal,
+}
 
 #[derive(clap::Args, Debug)]
 pub struct ConductanceArgs {
@@ -26,12 +47,24 @@ pub struct ConductanceArgs {
     /// CSV file with header t,p (optionally T), SI units: s, Pa absolute, K.
     #[arg(long, value_name = "FILE.csv")]
     pub data: PathBuf,
-    /// Atmospheric pressure downstream of the restriction.
-    #[arg(long = "p-atm", default_value = "1.01325 bar")]
-    pub p_atm: String,
-    /// Initial gas temperature (default: first T sample, else 293.15 K).
+    /// Atmospheric pressure downstream of the restriction (default: fitted
+    /// with C and b, started at 1.01325 bar or at the end of the trace).
+    #[arg(long = "p-atm")]
+    pub p_atm: Option<String>,
+    /// Initial gas (and wall) temperature (default: first T sample, else 293.15 K).
     #[arg(long = "T0")]
     pub t0: Option<String>,
+    /// Thermal model of the tank.
+    #[arg(long, value_enum, default_value_t = ThermalArg::Auto)]
+    pub thermal: ThermalArg,
+    /// Thermal time constant τ_T of the tank, known beforehand, e.g. "1 s"
+    /// ("inf": adiabatic, "0": isothermal); replaces the fitted one.
+    #[arg(long = "tau-thermal")]
+    pub tau_thermal: Option<String>,
+    /// Fit the pressure trace only, even when the data have a T column (T
+    /// still gives T0).
+    #[arg(long = "pressure-only")]
+    pub pressure_only: bool,
     /// Critical ratio bounding the choked window of the unloading-time
     /// estimate (default: b from the model fit).
     #[arg(long = "b-window")]
@@ -43,36 +76,91 @@ pub struct ConductanceArgs {
 
 const LPMB: f64 = 1e-3 / 60.0 / 1e5;
 
+/// The thermal option from `--thermal` and `--tau-thermal`.
+fn thermal_option(a: &ConductanceArgs) -> Result<ThermalOption, CliError> {
+    let Some(text) = &a.tau_thermal else {
+        return Ok(match a.thermal {
+            ThermalArg::Auto => ThermalOption::Auto,
+            ThermalArg::Adiabatic => ThermalOption::Adiabatic,
+            ThermalArg::Isothermal => ThermalOption::Isothermal,
+        });
+    };
+    if a.thermal != ThermalArg::Auto {
+        return Err(CliError::Usage("give either --thermal or --tau-thermal, not both".into()));
+    }
+    if matches!(text.trim(), "inf" | "infinity" | "∞") {
+        return Ok(ThermalOption::Adiabatic);
+    }
+    let tau = units::parse_quantity(text, dim::TIME).map_err(|e| CliError::Usage(format!("--tau-thermal \"{text}\": {e}")))?;
+    if tau == 0.0 {
+        Ok(ThermalOption::Isothermal)
+    } else if tau > 0.0 {
+        Ok(ThermalOption::Given(tau))
+    } else {
+        Err(CliError::Usage(format!("--tau-thermal \"{text}\": must be >= 0 s (or \"inf\")")))
+    }
+}
+
 pub fn run(a: &ConductanceArgs) -> Result<(), CliError> {
     let quantity =
         |text: &str, d, what: &str| units::parse_quantity(text, d).map_err(|e| CliError::Usage(format!("--{what} \"{text}\": {e}")));
     let volume = quantity(&a.volume, dim::VOLUME, "volume")?;
-    let p_atm = quantity(&a.p_atm, dim::PRESSURE, "p-atm")?;
-    if !(volume > 0.0 && p_atm > 0.0) {
-        return Err(CliError::Usage("--volume and --p-atm must be > 0".into()));
+    if volume.is_nan() || volume <= 0.0 {
+        return Err(CliError::Usage(format!("--volume \"{}\": must be > 0", a.volume)));
     }
     if let Some(b) = a.b_window {
         if !(b > 0.0 && b < 1.0) {
             return Err(CliError::Usage(format!("--b-window must be in (0, 1), got {b}")));
         }
     }
+    let thermal = thermal_option(a)?;
+    let given_p_atm = a.p_atm.as_deref().map(|text| quantity(text, dim::PRESSURE, "p-atm")).transpose()?;
+    if given_p_atm.is_some_and(|p| p.is_nan() || p <= 0.0) {
+        return Err(CliError::Usage("--p-atm must be > 0".into()));
+    }
+    let given_t0 = a.t0.as_deref().map(|text| quantity(text, dim::TEMPERATURE, "T0")).transpose()?;
     let data = read_discharge_csv(&a.data)?;
-    let t0 = match (&a.t0, &data.temperature) {
-        (Some(text), _) => quantity(text, dim::TEMPERATURE, "T0")?,
-        (None, Some(t)) => t[0],
+    let t0 = match (given_t0, &data.temperature) {
+        (Some(t0), _) => t0,
+        (None, Some(t)) => {
+            if !(150.0..=600.0).contains(&t[0]) {
+                return Err(CliError::Data(format!(
+                    "{}: first T sample {} K is not a plausible absolute gas temperature (the T column must be in K; or give --T0)",
+                    a.data.display(),
+                    t[0]
+                )));
+            }
+            t[0]
+        }
         (None, None) => 293.15,
     };
     if t0.is_nan() || t0 <= 0.0 {
         return Err(CliError::Usage(format!("--T0 must be > 0 K, got {t0}")));
     }
+    // p_atm: given, or fitted from a start the trace does not end below
+    let p_atm = given_p_atm.unwrap_or_else(|| p_atm_start(&data));
     let setup = DischargeSetup { volume, p_atm, t0 };
-    let opts = AnalysisOptions { b_window: a.b_window, ..AnalysisOptions::default() };
+    let opts = AnalysisOptions {
+        b_window: a.b_window,
+        thermal,
+        use_temperature: !a.pressure_only,
+        fit_p_atm: given_p_atm.is_none(),
+        ..AnalysisOptions::default()
+    };
+    let p_atm_source = if given_p_atm.is_some() { "given" } else { "fitted" };
     let report = analyse(&data, &setup, &opts).map_err(|e| CliError::Data(format!("{}: {e}", a.data.display())))?;
+    for w in &report.warnings {
+        eprintln!("warning: {}: {w}", a.data.display());
+    }
     if a.json {
-        let text = serde_json::to_string_pretty(&report).map_err(|e| CliError::Data(e.to_string()))?;
+        let mut value = serde_json::to_value(&report).map_err(|e| CliError::Data(e.to_string()))?;
+        if let Some(obj) = value.as_object_mut() {
+            obj.insert("p_atm_source".into(), p_atm_source.into());
+        }
+        let text = serde_json::to_string_pretty(&value).map_err(|e| CliError::Data(e.to_string()))?;
         println!("{text}");
     } else {
-        print!("{}", render(&report, &a.data));
+        print!("{}", render(&report, &a.data, p_atm_source));
     }
     Ok(())
 }
@@ -110,28 +198,95 @@ fn parse_discharge_csv(text: &str, origin: &str) -> Result<DischargeData, CliErr
     DischargeData::new(table.times, p, temperature).map_err(|e| CliError::Data(format!("{origin}: {e}")))
 }
 
+/// "finite tau_T = 1.002 ± 0.012 s" etc.
+fn thermal_text(model: ThermalModel, tau: Option<f64>, tau_std: Option<f64>) -> String {
+    match (model, tau) {
+        (ThermalModel::Adiabatic, _) => "adiabatic (tau_T = inf)".into(),
+        (ThermalModel::Isothermal, _) => "isothermal (tau_T -> 0)".into(),
+        (ThermalModel::FiniteTau, Some(t)) => match tau_std.filter(|v| v.is_finite()) {
+            Some(e) => format!("finite tau_T = {t:.4} ± {e:.4} s"),
+            None => format!("finite tau_T = {t:.4} s"),
+        },
+        (ThermalModel::FiniteTau, None) => "finite tau_T".into(),
+    }
+}
+
 /// The readable report.
-fn render(r: &DischargeReport, data: &Path) -> String {
+fn render(r: &DischargeReport, data: &Path, p_atm_source: &str) -> String {
     use std::fmt::Write;
     let mut s = String::new();
     let s_ = &mut s;
+    let opening = if r.opening.samples_dropped > 0 {
+        format!(
+            " from the opening found at t = {:.4} s ({} pre-trigger samples at {:.4} bar left out)",
+            r.opening.t_open,
+            r.opening.samples_dropped,
+            r.opening.p_hold / 1e5
+        )
+    } else {
+        String::new()
+    };
+    let p_atm = match r.model_fit.as_ref().and_then(|m| m.p_atm_std.map(|e| (m.p_atm, e))) {
+        Some((v, e)) => format!("{:.5} ± {:.5} bar ({p_atm_source})", v / 1e5, e / 1e5),
+        None => format!("{:.5} bar ({p_atm_source})", r.setup.p_atm / 1e5),
+    };
+    let t0 = match r.model_fit.as_ref().and_then(|m| m.t0_std.map(|e| (m.t0, e))) {
+        Some((v, e)) => format!("{v:.2} ± {e:.2} K (fitted to the T column)"),
+        None => format!("{:.2} K", r.setup.t0),
+    };
     let _ = writeln!(
         s_,
-        "Discharge test {}: {} samples over {:.4} s; V = {:.4} L, p_atm = {:.4} bar, T0 = {:.2} K, gamma = {:.4}, p_N = rho_N R T_N = {:.1} Pa",
+        "Discharge test {}: {} samples, {:.4} s{opening}; V = {:.4} L, p_atm = {p_atm}, T0 = {t0}, gamma = {:.4}, p_N = rho_N R T_N = {:.1} Pa",
         data.display(),
         r.n_samples,
         r.duration,
         r.setup.volume * 1e3,
-        r.setup.p_atm / 1e5,
-        r.setup.t0,
         r.gamma,
         r.p_n
     );
-    match (&r.unloading, &r.unloading_note) {
-        (Some(u), _) => {
+    let noise_t = r.noise_temperature.map(|v| format!(", temperature {v:.3} K")).unwrap_or_default();
+    let _ = writeln!(s_, "Noise estimated from the data: pressure {:.2} mbar{noise_t}", r.noise_p.unwrap_or(f64::NAN) / 100.0);
+    if let (Some(m), Some(th)) = (&r.model_fit, &r.thermal) {
+        let ratio =
+            th.tau_ratio.filter(|_| th.model == ThermalModel::FiniteTau).map(|x| format!(", tau_T/tau = {x:.3}")).unwrap_or_default();
+        let _ = writeln!(
+            s_,
+            "Thermal model: {} ({}{ratio}; process time tau = V/(gamma C p_N) = {:.4} s, Eq. 19)",
+            thermal_text(th.model, th.tau_thermal, th.tau_thermal_std),
+            th.source.describe(),
+            th.process_time
+        );
+        for c in &th.candidates {
+            let rt = c.rms_temperature.map(|v| format!(", T misfit {v:.3} K")).unwrap_or_default();
             let _ = writeln!(
                 s_,
-                "(a) unloading time, Eq. 36 (closed-form choked fit on {} samples, p >= p_atm/{:.3} = {:.4} bar, t <= {:.4} s):",
+                "    tried {:<28} C = {:>9.4} L/min/bar  b = {:.4}  misfit {:>8.2} mbar{rt}  dchi2 = {:.4}{}",
+                thermal_text(c.model, c.tau_thermal, None),
+                c.c / LPMB,
+                c.b,
+                c.rms / 100.0,
+                c.delta_chi2,
+                if c.rejected { "  rejected" } else { "" }
+            );
+        }
+        let _ = writeln!(s_, "    decision: {}", th.decision);
+        let _ = writeln!(
+            s_,
+            "Result: C = {:.4} ± {:.4} L/min/bar, b = {:.4} ± {:.4}, thermal model {}, misfit {:.2} mbar RMS",
+            m.c / LPMB,
+            m.c_std / LPMB,
+            m.b,
+            m.b_std,
+            m.thermal_model.name(),
+            m.rms / 100.0
+        );
+    }
+    match (&r.unloading, &r.unloading_note) {
+        (Some(u), _) => {
+            let law = if u.polytropic_index == 1.0 { "isothermal closed form, Eq. 36 with n = 1" } else { "adiabatic closed form" };
+            let _ = writeln!(
+                s_,
+                "(a) unloading time, Eq. 36 ({law}, choked fit on {} samples, p >= p_atm/{:.3} = {:.4} bar, t <= {:.4} s):",
                 u.n_points,
                 u.b_window,
                 u.p_window_min / 1e5,
@@ -147,6 +302,9 @@ fn render(r: &DischargeReport, data: &Path) -> String {
                 u.rms / 100.0
             );
             let _ = writeln!(s_, "    C = {:.4} ± {:.4} L/min/bar  ({:.4e} m3/(s Pa))", u.c / LPMB, u.c_std / LPMB, u.c);
+            if let Some(c) = &u.caveat {
+                let _ = writeln!(s_, "    note: {c}");
+            }
         }
         (None, Some(note)) => {
             let _ = writeln!(s_, "(a) unloading time, Eq. 36: not applicable: {note}");
@@ -156,7 +314,8 @@ fn render(r: &DischargeReport, data: &Path) -> String {
     if let Some(m) = &r.model_fit {
         let _ = writeln!(
             s_,
-            "(b) model fit (pneumo chamber + ISO 6358 conductance, adiabatic) on all {} samples: {} simulations, {}",
+            "(b) model fit (pneumo chamber + ISO 6358 conductance, {}) on all {} samples: {} simulations, {}",
+            m.thermal_model.name(),
             m.n_points,
             m.simulations,
             if m.converged { "converged" } else { "NOT converged (iteration limit)" }
@@ -172,12 +331,25 @@ fn render(r: &DischargeReport, data: &Path) -> String {
         );
         let _ = writeln!(
             s_,
-            "    p0 = {:.5} ± {:.5} bar   tau_U (Eq. 36) = {:.5} s   rms residual {:.2} mbar",
+            "    p0 = {:.5} ± {:.5} bar   tau_U (Eq. 36) = {:.5} s   rms residual {:.2} mbar (lag-1 autocorrelation {:.2})",
             m.p0 / 1e5,
             m.p0_std / 1e5,
             m.tau_u,
-            m.rms / 100.0
+            m.rms / 100.0,
+            m.residual_lag1
         );
+        if let Some(rt) = m.rms_temperature {
+            let pm = |v: Option<f64>| v.filter(|x| x.is_finite()).map(|x| format!(" ± {x:.4}")).unwrap_or_default();
+            let _ = writeln!(
+                s_,
+                "    T0 = {:.3}{} K   sensor lag = {:.4}{} s   rms temperature residual {:.3} K",
+                m.t0,
+                pm(m.t0_std),
+                m.sensor_lag.unwrap_or(0.0),
+                pm(m.sensor_lag_std),
+                rt
+            );
+        }
     }
     for f in &r.iso {
         let _ = writeln!(

@@ -85,7 +85,8 @@ pub struct Diagnosis {
     pub rmse_normalized: f64,
 }
 
-fn autocorrelation(x: &[f64], lag: usize) -> f64 {
+/// Sample autocorrelation of `x` at `lag` (mean removed; 0 when too short or constant).
+pub fn autocorrelation(x: &[f64], lag: usize) -> f64 {
     let n = x.len();
     if n <= lag + 1 {
         return 0.0;

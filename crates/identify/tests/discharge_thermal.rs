@@ -1,0 +1,343 @@
+//! Conductance from discharge tests with heat exchange, validated on traces
+//! from an independent generator.
+//!
+//! The generator below does not use pneumo: it is its own hand-written ODE of
+//! a rigid tank emptying through an ISO 6358 restriction into the atmosphere,
+//! integrated by classical fixed-step RK4 (10 µs steps), with textbook air
+//! (R = 287.0 J/(kg K), γ = 1.4, where pneumo uses 287.05 and 1.39993):
+//!
+//! - mass, paper Eq. 34/35 with the elliptic law Eq. 33 up to r = 1 (no
+//!   laminar end region): ṁ = −C·ρ_N·p·(T_N/T)^½·ω(p_atm/p);
+//! - energy, Eq. 17 with V̇ = 0 and the wall heat of Eq. 8:
+//!   Ṫ = (T_w − T)/τ_T + R·T·ṁ/(c_v·m) (adiabatic: no wall term;
+//!   isothermal: T ≡ T_w);
+//! - p = m·R·T/V; optionally a first-order temperature sensor
+//!   ẏ = (T − y)/τ_s.
+//!
+//! Sampled at 1 kHz; Gaussian noise σ = 5 mbar on p (0.3 K on T) from its own
+//! SplitMix64/Box–Muller generator. Each case asserts C within 2 %, b within
+//! 0.05 and the thermal model reported. Run with `--nocapture` to see the
+//! recovery table.
+
+use identify::discharge::{
+    analyse, p_atm_start, AnalysisOptions, DischargeData, DischargeSetup, ThermalModel, ThermalOption, ThermalSource,
+};
+
+const LPMB: f64 = 1e-3 / 60.0 / 1e5; // 1 L/min/bar in m³/(s Pa)
+const R: f64 = 287.0;
+const GAMMA: f64 = 1.4;
+const RHO_N: f64 = 1.185; // ISO 6358 reference density [kg/m³]
+const T_N: f64 = 293.15; // ISO 6358 reference temperature [K]
+const P_ATM: f64 = 1.013e5;
+const T_WALL: f64 = 293.15;
+
+#[derive(Clone, Copy, Debug)]
+enum Heat {
+    Adiabatic,
+    Isothermal,
+    Tau(f64),
+}
+
+#[derive(Clone, Copy, Debug)]
+struct Rig {
+    c_lpmb: f64,
+    b: f64,
+    volume: f64,
+    p0: f64,
+}
+
+/// Deterministic normal deviates: SplitMix64 and Box–Muller.
+struct Noise(u64);
+impl Noise {
+    fn uniform(&mut self) -> f64 {
+        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
+        let mut z = self.0;
+        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+        z ^= z >> 31;
+        ((z >> 11) as f64 + 0.5) / (1u64 << 53) as f64
+    }
+    fn normal(&mut self) -> f64 {
+        let (u1, u2) = (self.uniform(), self.uniform());
+        (-2.0 * u1.ln()).sqrt() * (2.0 * std::f64::consts::PI * u2).cos()
+    }
+}
+
+/// Time derivative of (m, T, y) for the tank.
+fn rates(rig: &Rig, heat: Heat, sensor_lag: f64, s: [f64; 3]) -> [f64; 3] {
+    let [m, temp, y] = s;
+    let cv = R / (GAMMA - 1.0);
+    let temp = if matches!(heat, Heat::Isothermal) { T_WALL } else { temp };
+    let p = m * R * temp / rig.volume;
+    let r = P_ATM / p;
+    let omega = if r >= 1.0 {
+        0.0
+    } else if r <= rig.b {
+        1.0
+    } else {
+        let x = (r - rig.b) / (1.0 - rig.b);
+        (1.0 - x * x).max(0.0).sqrt()
+    };
+    let mdot = -rig.c_lpmb * LPMB * RHO_N * p * (T_N / temp).sqrt() * omega;
+    let dtemp = match heat {
+        Heat::Isothermal => 0.0,
+        Heat::Adiabatic => R * temp * mdot / (cv * m),
+        Heat::Tau(tau) => (T_WALL - temp) / tau + R * temp * mdot / (cv * m),
+    };
+    let dy = if sensor_lag > 0.0 { (temp - y) / sensor_lag } else { 0.0 };
+    [mdot, dtemp, dy]
+}
+
+struct Trace {
+    t: Vec<f64>,
+    p: Vec<f64>,
+    temperature: Vec<f64>,
+}
+
+/// Integrate with RK4 (step 10 µs), sample at 1 kHz until the excess pressure
+/// has fallen below 0.2 % of its initial value, plus 10 % of that time.
+fn generate(rig: &Rig, heat: Heat, sensor_lag: f64) -> Trace {
+    let h = 1e-5;
+    let per_sample = 100;
+    let mut s = [rig.p0 * rig.volume / (R * T_WALL), T_WALL, T_WALL];
+    let pressure = |s: &[f64; 3]| {
+        let temp = if matches!(heat, Heat::Isothermal) { T_WALL } else { s[1] };
+        s[0] * R * temp / rig.volume
+    };
+    let gas_t = |s: &[f64; 3]| if matches!(heat, Heat::Isothermal) { T_WALL } else { s[1] };
+    let sensed = |s: &[f64; 3]| if sensor_lag > 0.0 { s[2] } else { gas_t(s) };
+    let mut tr = Trace { t: vec![0.0], p: vec![pressure(&s)], temperature: vec![sensed(&s)] };
+    let mut t_stop = f64::INFINITY;
+    let mut k = 0usize;
+    while k as f64 * h < t_stop && k < 30_000_000 {
+        let add = |a: &[f64; 3], d: &[f64; 3], f: f64| [a[0] + f * d[0], a[1] + f * d[1], a[2] + f * d[2]];
+        let k1 = rates(rig, heat, sensor_lag, s);
+        let k2 = rates(rig, heat, sensor_lag, add(&s, &k1, 0.5 * h));
+        let k3 = rates(rig, heat, sensor_lag, add(&s, &k2, 0.5 * h));
+        let k4 = rates(rig, heat, sensor_lag, add(&s, &k3, h));
+        for i in 0..3 {
+            s[i] += h / 6.0 * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i]);
+        }
+        k += 1;
+        if k.is_multiple_of(per_sample) {
+            let t = k as f64 * h;
+            let p = pressure(&s);
+            tr.t.push(t);
+            tr.p.push(p);
+            tr.temperature.push(sensed(&s));
+            if t_stop.is_infinite() && p - P_ATM < 2e-3 * (rig.p0 - P_ATM) {
+                t_stop = 1.1 * t;
+            }
+        }
+    }
+    tr
+}
+
+struct Case {
+    rig: Rig,
+    heat: Heat,
+    /// None: no T column; Some(lag): a T column through a sensor of this lag.
+    t_column: Option<f64>,
+    seed: u64,
+    /// Samples recorded at p0 before the opening.
+    pretrigger: usize,
+    /// Fit p_atm (as `pneumo conductance` does without --p-atm) instead of
+    /// giving the true value.
+    fit_p_atm: bool,
+}
+
+struct Outcome {
+    c: f64,
+    b: f64,
+    model: ThermalModel,
+    source: ThermalSource,
+    tau: Option<f64>,
+    rms_mbar: f64,
+    warnings: Vec<String>,
+}
+
+fn run_case(case: &Case, thermal: ThermalOption) -> Outcome {
+    let mut tr = generate(&case.rig, case.heat, case.t_column.unwrap_or(0.0));
+    let k = case.pretrigger;
+    tr.t = (0..k).map(|i| i as f64 * 1e-3).chain(tr.t.iter().map(|t| t + k as f64 * 1e-3)).collect();
+    tr.p = std::iter::repeat_n(tr.p[0], k).chain(tr.p.iter().copied()).collect();
+    tr.temperature = std::iter::repeat_n(tr.temperature[0], k).chain(tr.temperature.iter().copied()).collect();
+    let mut noise = Noise(case.seed);
+    let p: Vec<f64> = tr.p.iter().map(|v| v + 500.0 * noise.normal()).collect();
+    let temperature = case.t_column.map(|_| tr.temperature.iter().map(|v| v + 0.3 * noise.normal()).collect::<Vec<f64>>());
+    // T0 as `pneumo conductance` takes it: the first T sample, else 293.15 K
+    let t0 = temperature.as_ref().map_or(293.15, |t| t[0]);
+    let data = DischargeData::new(tr.t, p, temperature).expect("data");
+    let p_atm = if case.fit_p_atm { p_atm_start(&data) } else { P_ATM };
+    let setup = DischargeSetup { volume: case.rig.volume, p_atm, t0 };
+    let opts = AnalysisOptions { thermal, fit_p_atm: case.fit_p_atm, ..AnalysisOptions::default() };
+    let rep = analyse(&data, &setup, &opts).expect("analyse");
+    let m = rep.model_fit.as_ref().expect("model fit");
+    let th = rep.thermal.as_ref().expect("thermal selection");
+    Outcome {
+        c: m.c / LPMB,
+        b: m.b,
+        model: th.model,
+        source: th.source,
+        tau: th.tau_thermal,
+        rms_mbar: m.rms / 100.0,
+        warnings: rep.warnings.clone(),
+    }
+}
+
+fn heat_name(h: Heat) -> String {
+    match h {
+        Heat::Adiabatic => "adiabatic".into(),
+        Heat::Isothermal => "isothermal".into(),
+        Heat::Tau(t) => format!("tau_T = {t} s"),
+    }
+}
+
+/// Run `cases` with the automatic thermal choice and check every recovery.
+fn check_auto(cases: &[Case]) {
+    let mut failures = Vec::new();
+    for case in cases {
+        let o = run_case(case, ThermalOption::Auto);
+        let (rig, c_err, b_err) = (case.rig, o.c / case.rig.c_lpmb - 1.0, o.b - case.rig.b);
+        eprintln!(
+            "| {:>5} | {:.2} | {:>5.2} L | {} | {} | {} | {:<14} | {:>8.3} ({:+.2} %) | {:.3} ({:+.3}) | {:<12} {:<26} | {:>8} | {:.2} |",
+            rig.c_lpmb,
+            rig.b,
+            rig.volume * 1e3,
+            if case.pretrigger > 0 { "pre " } else { "    " },
+            if case.fit_p_atm { "fit  " } else { "given" },
+            match case.t_column {
+                None => "p    ".to_string(),
+                Some(l) if l > 0.0 => format!("p,T~{l}"),
+                Some(_) => "p,T  ".to_string(),
+            },
+            heat_name(case.heat),
+            o.c,
+            100.0 * c_err,
+            o.b,
+            b_err,
+            o.model.name(),
+            match o.source {
+                ThermalSource::FittedPressure => "fitted to p",
+                ThermalSource::FittedPressureTemperature => "fitted to p and T",
+                ThermalSource::Given => "given",
+                ThermalSource::Forced => "forced",
+            },
+            o.tau.map_or("inf".to_string(), |t| format!("{t:.3}")),
+            o.rms_mbar
+        );
+        for w in &o.warnings {
+            eprintln!("    warning: {w}");
+        }
+        let expected = match case.heat {
+            Heat::Adiabatic => ThermalModel::Adiabatic,
+            Heat::Isothermal => ThermalModel::Isothermal,
+            Heat::Tau(_) => ThermalModel::FiniteTau,
+        };
+        let expected_source =
+            if case.t_column.is_some() { ThermalSource::FittedPressureTemperature } else { ThermalSource::FittedPressure };
+        let mut bad = Vec::new();
+        if c_err.abs() > 0.02 {
+            bad.push(format!("C error {:+.2} %", 100.0 * c_err));
+        }
+        if b_err.abs() > 0.05 {
+            bad.push(format!("b error {b_err:+.3}"));
+        }
+        if o.model != expected || o.source != expected_source {
+            bad.push(format!("thermal model {:?}/{:?}, expected {expected:?}/{expected_source:?}", o.model, o.source));
+        }
+        if let (Heat::Tau(t), Some(fit)) = (case.heat, o.tau) {
+            if (fit / t - 1.0).abs() > 0.25 {
+                bad.push(format!("tau_T {fit:.3} s for {t} s"));
+            }
+        }
+        if o.rms_mbar > 6.0 {
+            bad.push(format!("misfit {:.2} mbar for 5 mbar noise", o.rms_mbar));
+        }
+        if !bad.is_empty() {
+            failures.push(format!("{:?} {:?} T column {:?}: {}", rig, case.heat, case.t_column, bad.join(", ")));
+        }
+    }
+    assert!(failures.is_empty(), "{}", failures.join("\n"));
+}
+
+/// The rigs: C = 100 and 30 L/min/bar, b = 0.3 and 0.5, volumes from 0.2 to
+/// 4 L (adiabatic discharge to 1 % excess pressure in about 0.4 to 5 s).
+const RIGS: [Rig; 4] = [
+    Rig { c_lpmb: 100.0, b: 0.3, volume: 0.5e-3, p0: 7e5 },
+    Rig { c_lpmb: 100.0, b: 0.3, volume: 4e-3, p0: 7e5 },
+    Rig { c_lpmb: 30.0, b: 0.5, volume: 0.2e-3, p0: 6e5 },
+    Rig { c_lpmb: 30.0, b: 0.5, volume: 1e-3, p0: 6e5 },
+];
+
+fn cases(heat: Heat, seed: u64) -> Vec<Case> {
+    let mut v = Vec::new();
+    for (i, rig) in RIGS.iter().enumerate() {
+        for t_column in [None, Some(0.0)] {
+            let seed = seed + 10 * i as u64 + u64::from(t_column.is_some());
+            // half the traces with a 40 ms pre-trigger, half with p_atm fitted
+            let (pretrigger, fit_p_atm) = (if i % 2 == 1 { 40 } else { 0 }, (i + usize::from(t_column.is_some())) % 2 == 0);
+            v.push(Case { rig: *rig, heat, t_column, seed, pretrigger, fit_p_atm });
+        }
+    }
+    v
+}
+
+#[test]
+fn adiabatic_traces_recover_c_b_and_say_adiabatic() {
+    check_auto(&cases(Heat::Adiabatic, 100));
+}
+
+#[test]
+fn isothermal_traces_recover_c_b_and_say_isothermal() {
+    check_auto(&cases(Heat::Isothermal, 200));
+}
+
+#[test]
+fn one_second_thermal_time_constant_is_fitted_with_c_and_b() {
+    check_auto(&cases(Heat::Tau(1.0), 300));
+}
+
+#[test]
+fn a_lagging_temperature_sensor_does_not_bias_c() {
+    // A thermocouple-like sensor with a 0.2 s lag on a τ_T = 1 s discharge.
+    let case = Case { rig: RIGS[3], heat: Heat::Tau(1.0), t_column: Some(0.2), seed: 401, pretrigger: 0, fit_p_atm: false };
+    check_auto(&[case]);
+}
+
+#[test]
+fn adiabatic_fit_of_an_isothermal_trace_is_biased_and_warns() {
+    // The symptom: C = 100 L/min/bar, b = 0.3, 1 L, isothermal.
+    let case = Case {
+        rig: Rig { c_lpmb: 100.0, b: 0.3, volume: 1e-3, p0: 7e5 },
+        heat: Heat::Isothermal,
+        t_column: None,
+        seed: 501,
+        pretrigger: 0,
+        fit_p_atm: false,
+    };
+    let o = run_case(&case, ThermalOption::Adiabatic);
+    eprintln!("forced adiabatic on an isothermal trace: C = {:.2}, b = {:.3}, {:.2} mbar RMS", o.c, o.b, o.rms_mbar);
+    assert_eq!(o.model, ThermalModel::Adiabatic);
+    assert_eq!(o.source, ThermalSource::Forced);
+    assert!((o.c / 100.0 - 1.0).abs() > 0.05, "the adiabatic reading should be biased: {}", o.c);
+    assert!(o.rms_mbar > 10.0);
+    assert_eq!(o.warnings.len(), 1, "{:?}", o.warnings);
+    assert!(o.warnings[0].contains("adiabatic fit leaves") && o.warnings[0].contains("not adiabatic"), "{}", o.warnings[0]);
+    // The same trace with τ_T given (tiny: isothermal in effect) or the
+    // isothermal model imposed is read right, without a warning.
+    for thermal in [ThermalOption::Isothermal, ThermalOption::Given(1e-4)] {
+        let o = run_case(&case, thermal);
+        assert!((o.c / 100.0 - 1.0).abs() < 0.02 && (o.b - 0.3).abs() < 0.05, "{thermal:?}: C {} b {}", o.c, o.b);
+        assert!(o.warnings.is_empty(), "{:?}", o.warnings);
+    }
+}
+
+#[test]
+fn given_tau_thermal_is_used_as_given() {
+    let case = Case { rig: RIGS[0], heat: Heat::Tau(1.0), t_column: None, seed: 601, pretrigger: 0, fit_p_atm: false };
+    let o = run_case(&case, ThermalOption::Given(1.0));
+    assert_eq!((o.model, o.source, o.tau), (ThermalModel::FiniteTau, ThermalSource::Given, Some(1.0)));
+    assert!((o.c / 100.0 - 1.0).abs() < 0.02 && (o.b - 0.3).abs() < 0.05, "C {} b {}", o.c, o.b);
+    assert!(o.warnings.is_empty(), "{:?}", o.warnings);
+}
