@@ -80,9 +80,9 @@ pub const PARAMS: &[ParamSpec] = &[
         "s",
         "thermal time constant tau_T (inf = adiabatic)",
     ),
-    ParamSpec::quantity("T_wall", dim::TEMPERATURE, Some(293.15), Range::Positive, "K", "wall temperature"),
-    ParamSpec::quantity("p0", dim::PRESSURE, Some(101_325.0), Range::Positive, "bar", "initial pressure (absolute)"),
-    ParamSpec::quantity("T0", dim::TEMPERATURE, Some(293.15), Range::Positive, "K", "initial temperature"),
+    ParamSpec::quantity("T_wall", dim::TEMPERATURE, Some(293.15), Range::GasTemperature, "K", "wall temperature"),
+    ParamSpec::quantity("p0", dim::PRESSURE, Some(101_325.0), Range::AbsolutePressure, "bar", "initial pressure (absolute)"),
+    ParamSpec::quantity("T0", dim::TEMPERATURE, Some(293.15), Range::GasTemperature, "K", "initial temperature"),
 ];
 
 pub const PORTS_TANK: &[PortSpec] = &[

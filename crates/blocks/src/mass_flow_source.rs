@@ -18,7 +18,7 @@ use units::dim;
 
 pub const PARAMS: &[ParamSpec] = &[
     ParamSpec::quantity("mdot", dim::MASS_FLOW, None, Range::Any, "g/s", "mass flow into the node"),
-    ParamSpec::quantity("T", dim::TEMPERATURE, Some(293.15), Range::Positive, "K", "temperature of the delivered gas"),
+    ParamSpec::quantity("T", dim::TEMPERATURE, Some(293.15), Range::GasTemperature, "K", "temperature of the delivered gas"),
 ];
 pub const PORTS: &[PortSpec] = &[PortSpec::new("port", PortKind::PneumaticFlow, "delivered flow")];
 

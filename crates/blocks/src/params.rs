@@ -58,7 +58,18 @@ pub enum Range {
     Closed(f64, f64),
     /// x > 0 or +∞ allowed ("inf")
     PositiveOrInfinite,
+    /// An absolute temperature the gas models cover [K]: [`TEMPERATURE_MIN`, `TEMPERATURE_MAX`].
+    GasTemperature,
+    /// An absolute pressure: 0 < p ≤ [`PRESSURE_MAX`] [Pa].
+    AbsolutePressure,
 }
+
+/// Lowest temperature accepted for gas [K] (below it air is no longer a gas at any useful pressure).
+pub const TEMPERATURE_MIN: f64 = 20.0;
+/// Highest temperature accepted for gas [K] (above it air dissociates; the cp(T) fits end at 6000 K).
+pub const TEMPERATURE_MAX: f64 = 3000.0;
+/// Highest absolute pressure accepted [Pa] (10 000 bar, far beyond pneumatics and the real-gas fit).
+pub const PRESSURE_MAX: f64 = 1e9;
 
 impl Range {
     fn check(self, x: f64) -> Result<(), String> {
@@ -69,6 +80,8 @@ impl Range {
             Range::OpenUnit => x > 0.0 && x < 1.0,
             Range::Closed(lo, hi) => x >= lo && x <= hi,
             Range::PositiveOrInfinite => x > 0.0 && !x.is_nan(),
+            Range::GasTemperature => (TEMPERATURE_MIN..=TEMPERATURE_MAX).contains(&x),
+            Range::AbsolutePressure => x > 0.0 && x <= PRESSURE_MAX,
         };
         if ok {
             Ok(())
@@ -80,6 +93,8 @@ impl Range {
                 Range::OpenUnit => "must be in (0, 1)".into(),
                 Range::Closed(lo, hi) => format!("must be in [{lo}, {hi}]"),
                 Range::PositiveOrInfinite => "must be > 0 (or \"inf\")".into(),
+                Range::GasTemperature => format!("must lie between {TEMPERATURE_MIN} K and {TEMPERATURE_MAX} K (absolute)"),
+                Range::AbsolutePressure => format!("must be > 0 and at most {} bar (absolute)", PRESSURE_MAX / 1e5),
             })
         }
     }

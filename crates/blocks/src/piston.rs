@@ -36,7 +36,7 @@ pub const PARAMS: &[ParamSpec] = &[
     ParamSpec::quantity("stroke", dim::LENGTH, None, Range::Positive, "mm", "stroke length"),
     ParamSpec::quantity("rod_area", dim::AREA, Some(0.0), Range::NonNegative, "cm2", "rod area exposed to the atmosphere"),
     ParamSpec::quantity("rod_diameter", dim::LENGTH, Some(0.0), Range::NonNegative, "mm", "rod diameter (alternative to rod_area)"),
-    ParamSpec::quantity("p_atm", dim::PRESSURE, Some(101_325.0), Range::Positive, "bar", "ambient pressure on the rod"),
+    ParamSpec::quantity("p_atm", dim::PRESSURE, Some(101_325.0), Range::AbsolutePressure, "bar", "ambient pressure on the rod"),
     ParamSpec::quantity("external_force", dim::FORCE, Some(0.0), Range::Any, "N", "constant load, positive in the extend direction"),
     ParamSpec::quantity(
         "restitution",

@@ -21,12 +21,12 @@ use gas::GasState;
 use units::dim;
 
 pub const PARAMS: &[ParamSpec] = &[
-    ParamSpec::quantity("p", dim::PRESSURE, None, Range::Positive, "bar", "absolute pressure"),
-    ParamSpec::quantity("T", dim::TEMPERATURE, Some(293.15), Range::Positive, "K", "temperature"),
+    ParamSpec::quantity("p", dim::PRESSURE, None, Range::AbsolutePressure, "bar", "absolute pressure"),
+    ParamSpec::quantity("T", dim::TEMPERATURE, Some(293.15), Range::GasTemperature, "K", "temperature"),
 ];
 pub const ATMOSPHERE_PARAMS: &[ParamSpec] = &[
-    ParamSpec::quantity("p", dim::PRESSURE, Some(101_325.0), Range::Positive, "bar", "ambient pressure"),
-    ParamSpec::quantity("T", dim::TEMPERATURE, Some(293.15), Range::Positive, "K", "ambient temperature"),
+    ParamSpec::quantity("p", dim::PRESSURE, Some(101_325.0), Range::AbsolutePressure, "bar", "ambient pressure"),
+    ParamSpec::quantity("T", dim::TEMPERATURE, Some(293.15), Range::GasTemperature, "K", "ambient temperature"),
 ];
 pub const PORTS: &[PortSpec] = &[PortSpec::new("port", PortKind::PneumaticEffort, "gas at the source state")];
 

@@ -2,8 +2,6 @@
 //! write it as Graphviz with `--dot`.
 
 use crate::error::CliError;
-use crate::load::flat_netlist;
-use crate::output::write_atomic;
 use std::fmt::Write;
 use std::path::PathBuf;
 
@@ -20,7 +18,12 @@ pub struct CheckArgs {
 }
 
 pub fn run(a: &CheckArgs) -> Result<(), CliError> {
-    let flat = flat_netlist(&a.model, &a.sets)?;
+    let (flat, inputs) = crate::load::netlist_with_files(&a.model, &a.sets)?;
+    let inputs: Vec<&std::path::Path> = inputs.iter().map(|p| p.as_path()).collect();
+    let mut outputs = crate::output::Transaction::new(&inputs);
+    if let Some(dot) = &a.dot {
+        outputs.check_targets(&[dot])?;
+    }
     let circuit = graph::build(&flat)?;
     solve::options_from(&circuit.simulation)?;
     crate::output::print_warnings(&circuit.warnings);
@@ -42,7 +45,8 @@ pub fn run(a: &CheckArgs) -> Result<(), CliError> {
         }
     }
     if let (Some(path), Some(dot)) = (&a.dot, dot) {
-        write_atomic(path, dot.as_bytes())?;
+        outputs.add(path, dot.as_bytes())?;
+        outputs.commit()?;
     }
     print!("{text}");
     println!("\nok: {} is a valid circuit", a.model.display());

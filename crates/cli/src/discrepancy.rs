@@ -25,8 +25,7 @@
 //! positions in mm, everything else in SI; no physics is computed here.
 
 use crate::error::CliError;
-use crate::load::flat_netlist;
-use crate::output::write_atomic;
+use crate::output::Transaction;
 use identify::diagnose::Trace;
 use identify::phases::Phase;
 use identify::workflow::{Candidate, Estimate, ModelSummary, Outcome};
@@ -59,21 +58,50 @@ pub fn run(a: &DiscrepancyArgs) -> Result<(), CliError> {
         .as_ref()
         .ok_or_else(|| CliError::Usage("give the model netlist: pneumo discrepancy MODEL.json --experiments EXPERIMENTS.json".into()))?;
     let manifest_path = a.experiments.as_ref().ok_or_else(|| CliError::Usage("give --experiments EXPERIMENTS.json".into()))?;
-    let flat = flat_netlist(model_path, &[])?;
-    let text = std::fs::read_to_string(manifest_path).map_err(|e| CliError::io(manifest_path, e))?;
+    let (flat, mut inputs) = crate::load::netlist_with_files(model_path, &[])?;
+    inputs.push(manifest_path.clone());
+    let text =
+        crate::load::read_text(manifest_path, crate::load::MAX_NETLIST_BYTES, "manifest").map_err(|e| CliError::io(manifest_path, e))?;
     let manifest = identify::manifest::parse(&text, &manifest_path.display().to_string()).map_err(|e| CliError::Data(e.to_string()))?;
     let dir = manifest_path.parent().map(Path::to_path_buf).unwrap_or_default();
+    let data_files = std::cell::RefCell::new(Vec::new());
+    let folder = std::fs::canonicalize(if dir.as_os_str().is_empty() { Path::new(".") } else { &dir }).unwrap_or_else(|_| dir.clone());
     let read = |name: &str| -> Result<(String, String), String> {
         let path = dir.join(name);
-        std::fs::read_to_string(&path).map(|t| (t, path.display().to_string())).map_err(|e| format!("{}: {e}", path.display()))
+        // data files are read from the manifest's folder and below only: a
+        // manifest cannot make pneumo read (and quote) a file elsewhere
+        match std::fs::canonicalize(&path) {
+            Ok(real) if !real.starts_with(&folder) => {
+                return Err(format!(
+                    "{}: data file lies outside the manifest's folder {} (put the data beside the manifest, or in a folder below it)",
+                    crate::error::shown_path(&path),
+                    crate::error::shown_path(&folder)
+                ))
+            }
+            Err(e) => return Err(format!("{}: {}", crate::error::shown_path(&path), graph::escape(&e.to_string()))),
+            Ok(_) => {}
+        }
+        data_files.borrow_mut().push(path.clone());
+        crate::load::read_text(&path, crate::load::MAX_DATA_BYTES, "data")
+            .map(|t| (t, path.display().to_string()))
+            .map_err(|e| format!("{}: {e}", crate::error::shown_path(&path)))
     };
     let resolved = identify::manifest::resolve(&manifest, &flat, &read).map_err(CliError::Data)?;
+    inputs.extend(data_files.into_inner());
+    if let Some(out) = &a.report {
+        // the report directory must not hold an input under a name the report writes
+        let names = ["summary.json", "report.md", "residuals_by_phase.png"];
+        let targets: Vec<PathBuf> = names.iter().map(|n| out.join(n)).collect();
+        let refs: Vec<&Path> = targets.iter().map(|p| p.as_path()).collect();
+        let ins: Vec<&Path> = inputs.iter().map(|p| p.as_path()).collect();
+        Transaction::new(&ins).check_targets(&refs)?;
+    }
     let outcome =
         identify::run(&flat, &resolved.experiments, &resolved.calibrate, &resolved.options).map_err(|e| CliError::Data(e.to_string()))?;
     let json = serde_json::to_string_pretty(&outcome.summary).map_err(|e| CliError::Data(e.to_string()))?;
     let mut written = Vec::new();
     if let Some(out) = &a.report {
-        written = write_report(out, model_path, manifest_path, &outcome, &json)?;
+        written = write_report(out, &inputs, model_path, manifest_path, &outcome, &json)?;
     }
     if a.json {
         println!("{json}");
@@ -243,12 +271,13 @@ fn display(signal: &str) -> (f64, String) {
 /// A drawn line: label, colour, width, points.
 type Series = (&'static str, RGBColor, u32, Vec<(f64, f64)>);
 
-/// Render with `draw` and write the PNG to `path` whole or not at all.
-fn png(path: &Path, draw: impl FnOnce(&Path) -> Result<(), String>) -> Result<(), CliError> {
+/// Render with `draw` and stage the PNG for `path` in the report's transaction.
+fn png(out: &mut Transaction, path: &Path, draw: impl FnOnce(&Path) -> Result<(), String>) -> Result<(), CliError> {
     ensure_font()?;
-    let bytes =
-        crate::plot::png_via_scratch(|file| draw(file).map_err(|e| CliError::Data(format!("cannot draw {}: {e}", path.display()))))?;
-    write_atomic(path, &bytes)
+    let bytes = crate::plot::png_via_scratch(|file| {
+        draw(file).map_err(|e| CliError::Data(format!("cannot draw {}: {e}", crate::error::shown_path(path))))
+    })?;
+    out.add(path, &bytes)
 }
 
 fn range(values: impl Iterator<Item = f64>) -> (f64, f64) {
@@ -263,10 +292,10 @@ fn range(values: impl Iterator<Item = f64>) -> (f64, f64) {
 /// Measured vs simulated before (and after) for one experiment: per channel
 /// a panel of the traces and a panel of the residuals (simulated − measured)
 /// with the ±σ noise band.
-fn fit_figure(path: &Path, before: &Trace, after: Option<&Trace>) -> Result<(), CliError> {
+fn fit_figure(out: &mut Transaction, path: &Path, before: &Trace, after: Option<&Trace>) -> Result<(), CliError> {
     let n = before.signals.len().max(1);
     let size = (1200u32, 60 + 2 * 230 * n as u32);
-    png(path, |file| {
+    png(out, path, |file| {
         let root = BitMapBackend::new(file, size).into_drawing_area();
         root.fill(&WHITE).map_err(|e| e.to_string())?;
         let title = format!(
@@ -356,14 +385,14 @@ fn fit_figure(path: &Path, before: &Trace, after: Option<&Trace>) -> Result<(), 
 }
 
 /// Normalised RMSE per phase and channel, before and after (log scale).
-fn phase_figure(path: &Path, before: &ModelSummary, after: Option<&ModelSummary>) -> Result<(), CliError> {
+fn phase_figure(out: &mut Transaction, path: &Path, before: &ModelSummary, after: Option<&ModelSummary>) -> Result<(), CliError> {
     let channels: Vec<String> = before.diagnosis.channels.keys().cloned().collect();
     let n = channels.len().max(1);
     let size = (1200u32, 60 + 280 * n as u32);
     let value = |m: &ModelSummary, ch: &str, ph: Phase| {
         m.diagnosis.phases.iter().find(|p| p.channel == ch && p.phase == ph).map(|p| p.rmse_normalized)
     };
-    png(path, |file| {
+    png(out, path, |file| {
         let root = BitMapBackend::new(file, size).into_drawing_area();
         root.fill(&WHITE).map_err(|e| e.to_string())?;
         let title = format!(
@@ -511,10 +540,50 @@ fn candidate_rows(md: &mut String, cands: &[Candidate]) {
     md.push('\n');
 }
 
-fn write_report(out: &Path, model_path: &Path, manifest_path: &Path, o: &Outcome, json: &str) -> Result<Vec<PathBuf>, CliError> {
+/// Write the report directory as one transaction: every file or none (a
+/// directory this call created is removed again if writing fails).
+fn write_report(
+    out: &Path,
+    inputs: &[PathBuf],
+    model_path: &Path,
+    manifest_path: &Path,
+    o: &Outcome,
+    json: &str,
+) -> Result<Vec<PathBuf>, CliError> {
+    let created = !out.exists();
     std::fs::create_dir_all(out).map_err(|e| CliError::io(out, e))?;
+    let inputs: Vec<&Path> = inputs.iter().map(|p| p.as_path()).collect();
+    let mut tx = Transaction::new(&inputs);
+    let result = stage_report(&mut tx, out, model_path, manifest_path, o, json).and_then(|written| tx.commit().map(|()| written));
+    if result.is_err() && created {
+        let _ = std::fs::remove_dir(out);
+    }
+    result
+}
+
+/// A file name not used yet in this report ("fit_run.png", "fit_run_2.png", ...).
+fn unique(used: &mut Vec<String>, stem: &str, ext: &str) -> String {
+    let mut name = format!("{stem}.{ext}");
+    let mut k = 2;
+    while used.contains(&name) {
+        name = format!("{stem}_{k}.{ext}");
+        k += 1;
+    }
+    used.push(name.clone());
+    name
+}
+
+fn stage_report(
+    tx: &mut Transaction,
+    out: &Path,
+    model_path: &Path,
+    manifest_path: &Path,
+    o: &Outcome,
+    json: &str,
+) -> Result<Vec<PathBuf>, CliError> {
     let s = &o.summary;
     let mut written = Vec::new();
+    let mut used: Vec<String> = ["summary.json", "report.md", "residuals_by_phase.png"].iter().map(|n| n.to_string()).collect();
     // netlists
     let mut model_files = Vec::new();
     for (label, flat) in &o.augmented {
@@ -525,7 +594,8 @@ fn write_report(out: &Path, model_path: &Path, manifest_path: &Path, o: &Outcome
             if label == "baseline" { "no missing effect".to_string() } else { format!("added {label}") }
         );
         let path = out.join(&name);
-        write_atomic(&path, netlist_json(flat, description)?.as_bytes())?;
+        used.push(name.clone());
+        tx.add(&path, netlist_json(flat, description)?.as_bytes())?;
         written.push(path);
         model_files.push(name);
     }
@@ -533,19 +603,19 @@ fn write_report(out: &Path, model_path: &Path, manifest_path: &Path, o: &Outcome
     let has_after = !s.selected.is_empty();
     let mut figures = Vec::new();
     for (k, b) in o.before.iter().enumerate() {
-        let name = format!("fit_{}.png", safe(&b.name));
+        let name = unique(&mut used, &format!("fit_{}", safe(&b.name)), "png");
         let path = out.join(&name);
-        fit_figure(&path, b, if has_after { o.after.get(k) } else { None })?;
+        fit_figure(tx, &path, b, if has_after { o.after.get(k) } else { None })?;
         written.push(path);
         figures.push(name);
     }
     let phase_name = "residuals_by_phase.png".to_string();
     let path = out.join(&phase_name);
-    phase_figure(&path, &s.baseline, if has_after { Some(&s.after) } else { None })?;
+    phase_figure(tx, &path, &s.baseline, if has_after { Some(&s.after) } else { None })?;
     written.push(path);
     // summary
     let path = out.join("summary.json");
-    write_atomic(&path, json.as_bytes())?;
+    tx.add(&path, json.as_bytes())?;
     written.push(path);
     // report.md
     let mut md = String::new();
@@ -611,7 +681,7 @@ fn write_report(out: &Path, model_path: &Path, manifest_path: &Path, o: &Outcome
     candidate_rows(&mut md, &s.candidates);
     let _ = writeln!(md, "{} simulations of all experiments, {:.1} s.", s.evaluations, s.seconds);
     let path = out.join("report.md");
-    write_atomic(&path, md.as_bytes())?;
+    tx.add(&path, md.as_bytes())?;
     written.push(path);
     Ok(written)
 }

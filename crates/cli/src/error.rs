@@ -18,6 +18,11 @@ pub enum CliError {
     Incomplete(String),
 }
 
+/// A path for a one-line message: control characters escaped.
+pub fn shown_path(path: &std::path::Path) -> String {
+    graph::escape(&path.display().to_string())
+}
+
 impl CliError {
     /// Exit status of a run that ended before completing its cycles.
     pub const EXIT_INCOMPLETE: u8 = 3;
@@ -32,7 +37,7 @@ impl CliError {
     }
 
     pub fn io(path: &std::path::Path, e: impl std::fmt::Display) -> Self {
-        CliError::Io { path: path.display().to_string(), message: e.to_string() }
+        CliError::Io { path: shown_path(path), message: graph::escape(&e.to_string()) }
     }
 }
 

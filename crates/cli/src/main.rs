@@ -22,6 +22,12 @@ use std::process::ExitCode;
 struct Cli {
     #[command(subcommand)]
     command: Command,
+    /// Most components a circuit may expand to (subsystems included).
+    #[arg(long = "max-components", global = true, value_name = "N", default_value_t = graph::expand::DEFAULT_MAX_COMPONENTS)]
+    max_components: usize,
+    /// Memory a run may plan to use [MiB] (result traces, the solver's matrices); larger runs are refused before they start.
+    #[arg(long = "max-memory", global = true, value_name = "MiB", default_value_t = load::DEFAULT_MAX_MEMORY_MIB)]
+    max_memory: u64,
 }
 
 #[derive(Subcommand, Debug)]
@@ -47,7 +53,12 @@ enum Command {
 }
 
 fn main() -> ExitCode {
-    let cli = Cli::parse();
+    restore_default_sigpipe();
+    let cli = match Cli::try_parse() {
+        Ok(cli) => cli,
+        Err(e) => return usage_error(e),
+    };
+    load::set_limits(load::Limits { max_components: cli.max_components, max_memory_mib: cli.max_memory });
     let result = match cli.command {
         Command::Check(a) => check::run(&a),
         Command::Simulate(a) => simulate::run(&a),
@@ -68,8 +79,52 @@ fn main() -> ExitCode {
     match result {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
-            eprintln!("error: {e}");
+            eprintln!("error: {}", one_line(&e.to_string()));
             ExitCode::from(e.exit_code())
         }
+    }
+}
+
+/// A message as one line: control characters (newlines, terminal escapes)
+/// from any input it quotes are shown escaped.
+fn one_line(message: &str) -> String {
+    message.chars().map(|c| if c.is_control() { format!("\\u{{{:x}}}", c as u32) } else { c.to_string() }).collect()
+}
+
+/// clap's errors in one line (its first line, with the command to get help);
+/// `--help` and `--version` keep their full text on stdout.
+fn usage_error(e: clap::Error) -> ExitCode {
+    use clap::error::ErrorKind;
+    match e.kind() {
+        ErrorKind::DisplayHelp | ErrorKind::DisplayVersion | ErrorKind::DisplayHelpOnMissingArgumentOrSubcommand => {
+            let _ = e.print();
+            ExitCode::SUCCESS
+        }
+        _ => {
+            // the message is the text before clap's "Usage:" and tip lines
+            let text = e.render().to_string();
+            let lines: Vec<&str> = text
+                .lines()
+                .map(str::trim)
+                .take_while(|l| !l.starts_with("Usage:") && !l.starts_with("For more information"))
+                .filter(|l| !l.is_empty() && !l.starts_with("tip:"))
+                .collect();
+            let joined = lines.join(" ");
+            let message = joined.strip_prefix("error: ").unwrap_or(&joined);
+            let message = if message.is_empty() { "invalid arguments" } else { message };
+            eprintln!("error: {} (see pneumo --help)", one_line(message));
+            ExitCode::from(2)
+        }
+    }
+}
+
+/// Die quietly on a closed pipe (`pneumo blocks | head`), as Unix tools do,
+/// instead of panicking inside `println!`.
+fn restore_default_sigpipe() {
+    #[cfg(unix)]
+    // SAFETY: called first thing in main, before any thread exists; only
+    // resets the disposition of SIGPIPE to its default.
+    unsafe {
+        libc::signal(libc::SIGPIPE, libc::SIG_DFL);
     }
 }

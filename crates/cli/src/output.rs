@@ -1,47 +1,230 @@
-//! Writing result files atomically: to a temporary file beside the target,
-//! renamed into place only when complete, so a failed run leaves no partial file.
-//! A target that exists and is not a regular file (`/dev/null`, `/dev/stdout`,
-//! a named pipe) is written in place: renaming over it would replace the device
-//! by a regular file. A symbolic link is followed, so the link stays a link.
+//! Writing a command's outputs as one transaction: every output is written
+//! to a temporary file beside its target, and only when all of them are
+//! complete are they renamed into place; if anything fails, every temporary
+//! is removed and every existing file is left byte for byte as it was. A
+//! target that already exists is first moved aside (to a hidden backup in
+//! its directory) so that a failing rename can put it back.
+//!
+//! Before anything is written, outputs are checked against the inputs and
+//! against each other by file identity (canonical path, and device and inode
+//! for files that exist): `--out` equal to the input netlist, to a data file,
+//! or to `--summary` is refused with one line.
+//!
+//! A target that exists and is not a regular file (`/dev/null`,
+//! `/dev/stdout`, a named pipe) is written in place after the renames:
+//! renaming over it would replace the device by a regular file. A symbolic
+//! link is followed, so the link stays a link.
 
 use crate::error::CliError;
 use solve::SimResult;
 use std::io::Write;
 use std::path::{Path, PathBuf};
 
-/// Write `bytes` to `path` through a temporary file and a rename, or in place
-/// when `path` names something other than a regular file.
-pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), CliError> {
-    let target = match std::fs::canonicalize(path) {
+/// Where an output goes once the transaction commits.
+#[derive(Debug)]
+enum Staged {
+    /// A regular file (new or existing): written to `tmp`, renamed onto `target`.
+    File { target: PathBuf, tmp: PathBuf, shown: PathBuf },
+    /// A device or pipe: written in place at commit.
+    InPlace { target: PathBuf, bytes: Vec<u8>, shown: PathBuf },
+}
+
+/// The outputs of one command (see the module documentation).
+#[derive(Debug, Default)]
+pub struct Transaction {
+    staged: Vec<Staged>,
+    /// Identities of the files read (they must not be written).
+    inputs: Vec<(PathBuf, FileIdentity)>,
+}
+
+/// What makes two paths the same file.
+#[derive(Debug, Clone, PartialEq)]
+struct FileIdentity {
+    /// Canonical path (of the file, or of its directory joined with its name if it does not exist yet).
+    path: PathBuf,
+    /// (device, inode) of an existing file.
+    node: Option<(u64, u64)>,
+}
+
+fn identity(path: &Path) -> Option<FileIdentity> {
+    match std::fs::canonicalize(path) {
         Ok(real) => {
-            let is_file = std::fs::metadata(&real).map_err(|e| CliError::io(path, e))?.is_file();
-            if !is_file {
-                return write_in_place(&real, bytes).map_err(|e| CliError::io(path, e));
-            }
-            real
+            #[cfg(unix)]
+            let node = std::fs::metadata(&real).ok().map(|m| {
+                use std::os::unix::fs::MetadataExt;
+                (m.dev(), m.ino())
+            });
+            #[cfg(not(unix))]
+            let node = None;
+            Some(FileIdentity { path: real, node })
         }
-        // Not there yet (or a dangling link): create it beside the given path.
-        Err(_) => path.to_path_buf(),
-    };
-    let tmp = temporary_beside(&target).ok_or_else(|| CliError::Usage(format!("{} is not a file name", path.display())))?;
-    let result = (|| {
-        let mut f = std::fs::File::create(&tmp)?;
-        f.write_all(bytes)?;
-        f.sync_all()?;
-        std::fs::rename(&tmp, &target)
-    })();
-    if let Err(e) = result {
-        let _ = std::fs::remove_file(&tmp);
-        return Err(CliError::io(path, e));
+        Err(_) => {
+            let name = path.file_name()?;
+            let dir = path.parent().filter(|d| !d.as_os_str().is_empty()).unwrap_or(Path::new("."));
+            let dir = std::fs::canonicalize(dir).unwrap_or_else(|_| dir.to_path_buf());
+            Some(FileIdentity { path: dir.join(name), node: None })
+        }
     }
-    Ok(())
+}
+
+fn same(a: &FileIdentity, b: &FileIdentity) -> bool {
+    a.path == b.path || (a.node.is_some() && a.node == b.node)
+}
+
+impl Transaction {
+    /// A transaction for a command that reads `inputs` (netlists, data files).
+    pub fn new(inputs: &[&Path]) -> Self {
+        let inputs = inputs.iter().filter_map(|p| identity(p).map(|id| (p.to_path_buf(), id))).collect();
+        Transaction { staged: Vec::new(), inputs }
+    }
+
+    /// Refuse outputs that are an input or each other, before any work is done.
+    pub fn check_targets(&self, outputs: &[&Path]) -> Result<(), CliError> {
+        let ids: Vec<(PathBuf, FileIdentity)> = outputs.iter().filter_map(|p| identity(p).map(|id| (p.to_path_buf(), id))).collect();
+        for (k, (path, id)) in ids.iter().enumerate() {
+            let device = std::fs::metadata(&id.path).map(|m| !m.is_file() && !m.is_dir()).unwrap_or(false);
+            if device {
+                continue; // writing /dev/null twice loses nothing
+            }
+            if let Some((input, _)) = self.inputs.iter().find(|(_, i)| same(i, id)) {
+                return Err(CliError::Usage(format!(
+                    "output {} is the input {}: refusing to overwrite it",
+                    crate::error::shown_path(path),
+                    crate::error::shown_path(input)
+                )));
+            }
+            if let Some((other, _)) = ids[..k].iter().find(|(_, o)| same(o, id)) {
+                return Err(CliError::Usage(format!(
+                    "outputs {} and {} are the same file",
+                    crate::error::shown_path(other),
+                    crate::error::shown_path(path)
+                )));
+            }
+        }
+        Ok(())
+    }
+
+    /// Stage `bytes` for `path`: a regular target is written to a temporary now.
+    pub fn add(&mut self, path: &Path, bytes: &[u8]) -> Result<(), CliError> {
+        self.check_targets(&[path])?;
+        if let Some(id) = identity(path) {
+            let clash = self.staged.iter().any(|s| match s {
+                Staged::File { shown, .. } => identity(shown).is_some_and(|o| same(&o, &id)),
+                Staged::InPlace { .. } => false,
+            });
+            if clash {
+                return Err(CliError::Usage(format!("{} would be written twice", crate::error::shown_path(path))));
+            }
+        }
+        let target = match std::fs::canonicalize(path) {
+            Ok(real) => {
+                let meta = std::fs::metadata(&real).map_err(|e| CliError::io(path, e))?;
+                if meta.is_dir() {
+                    return Err(CliError::Usage(format!("{} is a directory, not a file", crate::error::shown_path(path))));
+                }
+                if !meta.is_file() {
+                    self.staged.push(Staged::InPlace { target: real, bytes: bytes.to_vec(), shown: path.to_path_buf() });
+                    return Ok(());
+                }
+                real
+            }
+            // Not there yet (or a dangling link): create it beside the given path.
+            Err(_) => path.to_path_buf(),
+        };
+        let tmp = temporary_beside(&target, "tmp")
+            .ok_or_else(|| CliError::Usage(format!("{} is not a file name", crate::error::shown_path(path))))?;
+        let written = (|| {
+            let mut f = std::fs::File::create(&tmp)?;
+            f.write_all(bytes)?;
+            f.sync_all()
+        })();
+        if let Err(e) = written {
+            let _ = std::fs::remove_file(&tmp);
+            return Err(CliError::io(path, e));
+        }
+        self.staged.push(Staged::File { target, tmp, shown: path.to_path_buf() });
+        Ok(())
+    }
+
+    /// Put every staged output in place, or none of them.
+    pub fn commit(mut self) -> Result<(), CliError> {
+        let staged = std::mem::take(&mut self.staged);
+        // 1. existing regular targets move aside
+        let mut backups: Vec<(PathBuf, PathBuf)> = Vec::new();
+        let mut failure: Option<CliError> = None;
+        for s in &staged {
+            if let Staged::File { target, shown, .. } = s {
+                if std::fs::symlink_metadata(target).is_ok() {
+                    let Some(backup) = temporary_beside(target, "old") else { continue };
+                    match std::fs::rename(target, &backup) {
+                        Ok(()) => backups.push((target.clone(), backup)),
+                        Err(e) => {
+                            failure = Some(CliError::io(shown, e));
+                            break;
+                        }
+                    }
+                }
+            }
+        }
+        // 2. the new files move in
+        let mut placed: Vec<PathBuf> = Vec::new();
+        if failure.is_none() {
+            for s in &staged {
+                if let Staged::File { target, tmp, shown } = s {
+                    match std::fs::rename(tmp, target) {
+                        Ok(()) => placed.push(target.clone()),
+                        Err(e) => {
+                            failure = Some(CliError::io(shown, e));
+                            break;
+                        }
+                    }
+                }
+            }
+        }
+        if let Some(e) = failure {
+            // undo: remove what was placed and the temporaries, restore the originals
+            for p in &placed {
+                let _ = std::fs::remove_file(p);
+            }
+            for s in &staged {
+                if let Staged::File { tmp, .. } = s {
+                    let _ = std::fs::remove_file(tmp);
+                }
+            }
+            for (target, backup) in &backups {
+                let _ = std::fs::rename(backup, target);
+            }
+            return Err(e);
+        }
+        for (_, backup) in &backups {
+            let _ = std::fs::remove_file(backup);
+        }
+        // 3. devices and pipes, in place
+        for s in staged {
+            if let Staged::InPlace { target, bytes, shown } = s {
+                write_in_place(&target, &bytes).map_err(|e| CliError::io(&shown, e))?;
+            }
+        }
+        Ok(())
+    }
+}
+
+impl Drop for Transaction {
+    /// A transaction dropped without a commit (an error on the way) leaves no temporary behind.
+    fn drop(&mut self) {
+        for s in &self.staged {
+            if let Staged::File { tmp, .. } = s {
+                let _ = std::fs::remove_file(tmp);
+            }
+        }
+    }
 }
 
 /// A hidden temporary name in the directory of `target`, unique to this process.
-fn temporary_beside(target: &Path) -> Option<PathBuf> {
+fn temporary_beside(target: &Path, kind: &str) -> Option<PathBuf> {
     let dir = target.parent().filter(|d| !d.as_os_str().is_empty()).unwrap_or(Path::new("."));
     let name = target.file_name()?;
-    Some(dir.join(format!(".{}.tmp{}", name.to_string_lossy(), std::process::id())))
+    Some(dir.join(format!(".{}.{kind}{}", name.to_string_lossy(), std::process::id())))
 }
 
 /// Write into an existing non-regular file (a device or a pipe) without creating anything.
@@ -104,7 +287,7 @@ pub fn print_warnings(warnings: &[graph::Warning]) {
     let mut seen = std::collections::BTreeSet::new();
     for w in warnings {
         if seen.insert(w) {
-            eprintln!("warning: {w}");
+            eprintln!("warning: {}", graph::escape(&w.to_string()));
         }
     }
 }
@@ -173,6 +356,69 @@ pub fn summary(result: &SimResult, model_name: &str, columns: &[usize]) -> serde
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// One output on its own (a transaction of one file).
+    fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), CliError> {
+        let mut t = Transaction::new(&[]);
+        t.add(path, bytes)?;
+        t.commit()
+    }
+
+    fn leftovers(dir: &Path) -> Vec<String> {
+        std::fs::read_dir(dir)
+            .unwrap()
+            .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+            .filter(|n| n.starts_with('.'))
+            .collect()
+    }
+
+    #[test]
+    fn a_failing_output_leaves_every_existing_file_as_it_was() {
+        let dir = scratch("rollback");
+        let (a, b) = (dir.join("a.csv"), dir.join("b.json"));
+        std::fs::write(&a, b"old a").unwrap();
+        std::fs::write(&b, b"old b").unwrap();
+        let mut t = Transaction::new(&[]);
+        t.add(&a, b"new a").unwrap();
+        // the second output's directory does not exist: staging fails ...
+        assert!(t.add(&dir.join("missing/c.png"), b"c").is_err());
+        drop(t);
+        // ... and nothing was replaced, no temporary is left
+        assert_eq!(std::fs::read(&a).unwrap(), b"old a");
+        assert_eq!(std::fs::read(&b).unwrap(), b"old b");
+        assert!(leftovers(&dir).is_empty(), "{:?}", leftovers(&dir));
+        // a complete transaction replaces both
+        let mut t = Transaction::new(&[]);
+        t.add(&a, b"new a").unwrap();
+        t.add(&b, b"new b").unwrap();
+        t.commit().unwrap();
+        assert_eq!((std::fs::read(&a).unwrap(), std::fs::read(&b).unwrap()), (b"new a".to_vec(), b"new b".to_vec()));
+        assert!(leftovers(&dir).is_empty(), "{:?}", leftovers(&dir));
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    #[test]
+    fn an_output_that_is_an_input_or_another_output_is_refused() {
+        let dir = scratch("same");
+        let model = dir.join("m.json");
+        std::fs::write(&model, b"{}").unwrap();
+        let t = Transaction::new(&[&model]);
+        let e = t.check_targets(&[&dir.join("r.csv"), &model]).unwrap_err().to_string();
+        assert!(e.contains("m.json") && e.contains("input"), "{e}");
+        // the same file reached through another spelling
+        let other = dir.join(".").join("m.json");
+        assert!(t.check_targets(&[&other]).is_err());
+        let e = t.check_targets(&[&dir.join("r.csv"), &dir.join("./r.csv")]).unwrap_err().to_string();
+        assert!(e.contains("same file"), "{e}");
+        #[cfg(unix)]
+        {
+            let link = dir.join("link.json");
+            std::os::unix::fs::symlink(&model, &link).unwrap();
+            assert!(t.check_targets(&[&link]).is_err(), "a link to the input is the input");
+        }
+        assert_eq!(std::fs::read(&model).unwrap(), b"{}");
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
 
     fn scratch(name: &str) -> PathBuf {
         let dir = std::env::temp_dir().join(format!("pneumo-output-{name}-{}", std::process::id()));

@@ -23,10 +23,9 @@
 //! bundled DejaVu Sans (assets/fonts, Bitstream Vera licence), registered with
 //! plotters' ab_glyph support, so no system fonts are needed. PNGs are
 //! rendered into a private scratch directory and read back; the caller writes
-//! the returned bytes with [`write_atomic`].
+//! the returned bytes with [`crate::output::Transaction`].
 
 use crate::error::CliError;
-use crate::output::write_atomic;
 use plotters::coord::Shift;
 use plotters::prelude::{
     BitMapBackend, ChartBuilder, Circle, Color, DrawingArea, DrawingAreaErrorKind, DrawingBackend, FontStyle, IntoDrawingArea, IntoFont,
@@ -100,6 +99,9 @@ pub struct PlotArgs {
 
 pub fn run(a: &PlotArgs) -> Result<(), CliError> {
     format_of(&a.output)?;
+    let inputs: Vec<&Path> = a.inputs.iter().chain(a.sweep.iter()).map(|p| p.as_path()).collect();
+    let mut outputs = crate::output::Transaction::new(&inputs);
+    outputs.check_targets(&[&a.output])?;
     let figure = match &a.sweep {
         Some(sweep) => {
             if !a.signals.is_empty() {
@@ -131,8 +133,9 @@ pub fn run(a: &PlotArgs) -> Result<(), CliError> {
         clip_vertical(&mut figure, lo, hi);
     }
     let bytes = render(&figure, &a.output)?;
-    write_atomic(&a.output, &bytes)?;
-    println!("wrote {}", a.output.display());
+    outputs.add(&a.output, &bytes)?;
+    outputs.commit()?;
+    println!("wrote {}", crate::error::shown_path(&a.output));
     Ok(())
 }
 
@@ -730,7 +733,7 @@ fn render(fig: &Figure, path: &Path) -> Result<Vec<u8>, CliError> {
 
 /// Let `draw` write a PNG file into a private scratch directory and return its
 /// bytes (plotters' bitmap backend writes to a path; the caller then writes
-/// the bytes with [`write_atomic`], which knows about devices and links).
+/// the bytes through [`crate::output::Transaction`], which knows about devices and links).
 pub fn png_via_scratch(draw: impl FnOnce(&Path) -> Result<(), CliError>) -> Result<Vec<u8>, CliError> {
     let dir = ScratchDir::new()?;
     let file = dir.path.join("plot.png");
@@ -738,18 +741,31 @@ pub fn png_via_scratch(draw: impl FnOnce(&Path) -> Result<(), CliError>) -> Resu
     std::fs::read(&file).map_err(|e| CliError::io(&file, e))
 }
 
-/// Smallest and largest finite value, padded so the range is never empty.
+/// Largest magnitude drawn: values beyond it are drawn at it (an axis over
+/// ±1e308 would overflow the tick computation).
+const DRAWN_MAX: f64 = 1e300;
+
+/// Smallest and largest finite value, padded so the range is never empty,
+/// always finite with lo < hi (non-finite values are skipped, huge ones clipped).
 fn axis_range(values: impl Iterator<Item = f64>, pad_fraction: f64) -> (f64, f64) {
-    let (lo, hi) = values.filter(|v| v.is_finite()).fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), v| (l.min(v), h.max(v)));
+    let (lo, hi) = values
+        .filter(|v| v.is_finite())
+        .map(|v| v.clamp(-DRAWN_MAX, DRAWN_MAX))
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), v| (l.min(v), h.max(v)));
     if !(lo.is_finite() && hi.is_finite()) {
         return (0.0, 1.0);
     }
     let span = hi - lo;
-    if span > 0.0 {
+    let (a, b) = if span > 1e-12 * lo.abs().max(hi.abs()) && span > 1e-290 {
         (lo - pad_fraction * span, hi + pad_fraction * span)
     } else {
-        let half = if lo != 0.0 { 0.05 * lo.abs() } else { 0.5 };
+        let half = if lo.abs() > 1e-290 { 0.05 * lo.abs() } else { 0.5 };
         (lo - half, hi + half)
+    };
+    if a.is_finite() && b.is_finite() && a < b {
+        (a, b)
+    } else {
+        (0.0, 1.0)
     }
 }
 
@@ -759,7 +775,7 @@ fn segments(points: &[(f64, Option<f64>)]) -> Vec<Vec<(f64, f64)>> {
     let mut current = Vec::new();
     for &(x, y) in points {
         match y {
-            Some(y) if y.is_finite() && x.is_finite() => current.push((x, y)),
+            Some(y) if y.is_finite() && x.is_finite() => current.push((x.clamp(-DRAWN_MAX, DRAWN_MAX), y.clamp(-DRAWN_MAX, DRAWN_MAX))),
             _ => {
                 if !current.is_empty() {
                     out.push(std::mem::take(&mut current));

@@ -62,7 +62,9 @@ pub fn prepare(mut flat: FlatNetlist, spec: &RunSpec) -> Result<Prepared, CliErr
     let outputs = circuit.simulation.outputs.clone();
     let name = circuit.name.clone();
     let warnings = circuit.warnings.clone();
-    Ok(Prepared { name, outputs, model: solve::Model::new(circuit), opts, warnings })
+    let model = solve::Model::new(circuit);
+    solve::budget::check(&model, &opts, crate::load::limits().max_memory_mib).map_err(|e| CliError::Usage(e.to_string()))?;
+    Ok(Prepared { name, outputs, model, opts, warnings })
 }
 
 /// Run a prepared model. A run that counts cycles and reaches its end time

@@ -1,8 +1,8 @@
 //! `pneumo simulate`: one run, written as CSV traces and a JSON summary.
 
 use crate::error::CliError;
-use crate::load::flat_netlist;
-use crate::output::{csv, select_columns, summary, write_atomic};
+use crate::load::netlist_with_files;
+use crate::output::{csv, select_columns, summary, Transaction};
 use crate::run::{execute, prepare, RunSpec};
 use std::path::PathBuf;
 
@@ -38,7 +38,12 @@ pub struct SimulateArgs {
 
 pub fn run(a: &SimulateArgs) -> Result<(), CliError> {
     let spec = RunSpec { sets: a.sets.clone(), cycles: a.cycles, t_end: a.t_end };
-    let prepared = prepare(flat_netlist(&a.model, &[])?, &spec)?;
+    let (flat, inputs) = netlist_with_files(&a.model, &[])?;
+    let inputs: Vec<&std::path::Path> = inputs.iter().map(|p| p.as_path()).collect();
+    let mut outputs = Transaction::new(&inputs);
+    let targets: Vec<&std::path::Path> = [&a.out, &a.summary, &a.plot].into_iter().flatten().map(|p| p.as_path()).collect();
+    outputs.check_targets(&targets)?;
+    let prepared = prepare(flat, &spec)?;
     let wanted = if a.signals.is_empty() { prepared.outputs.clone() } else { a.signals.clone() };
     // unknown signal names are reported before the run, not after it
     let names = prepared.model.output_names();
@@ -63,14 +68,15 @@ pub fn run(a: &SimulateArgs) -> Result<(), CliError> {
         None => None,
     };
     if let (Some(path), Some(bytes)) = (&a.plot, plot_bytes) {
-        write_atomic(path, &bytes)?;
+        outputs.add(path, &bytes)?;
     }
     if let (Some(path), Some(text)) = (&a.out, csv_text) {
-        write_atomic(path, text.as_bytes())?;
+        outputs.add(path, text.as_bytes())?;
     }
     if let (Some(path), Some(text)) = (&a.summary, summary_text) {
-        write_atomic(path, text.as_bytes())?;
+        outputs.add(path, text.as_bytes())?;
     }
+    outputs.commit()?;
     let res = &r.result;
     for (i, c) in res.cycles.iter().enumerate() {
         println!("cycle {}: extend {:.4} s, retract {:.4} s, total {:.4} s", i + 1, c.extend, c.retract, c.total);

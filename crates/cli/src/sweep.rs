@@ -33,8 +33,6 @@
 //! not depend on the varied values.
 
 use crate::error::CliError;
-use crate::load::flat_netlist;
-use crate::output::write_atomic;
 use crate::run::{run_flat, RunSpec};
 use blocks::params::{ParamKind, Range};
 use graph::FlatNetlist;
@@ -68,6 +66,9 @@ pub struct SweepArgs {
     /// Write one row per case (CSV, or JSON if the name ends in .json).
     #[arg(long, value_name = "FILE.csv|FILE.json")]
     pub out: Option<PathBuf>,
+    /// Most cases this process runs (the whole sweep, or its shard); raise it, or split the sweep with --shard.
+    #[arg(long = "max-cases", value_name = "N", default_value_t = DEFAULT_MAX_CASES)]
+    pub max_cases: usize,
 }
 
 #[derive(clap::Args, Debug)]
@@ -78,6 +79,9 @@ pub struct MergeArgs {
     /// Merged file (CSV, or JSON if the name ends in .json).
     #[arg(long, value_name = "FILE.csv|FILE.json")]
     pub out: PathBuf,
+    /// Most cases the merged sweep may hold.
+    #[arg(long = "max-cases", value_name = "N", default_value_t = DEFAULT_MAX_CASES)]
+    pub max_cases: usize,
 }
 
 /// One output cell.
@@ -285,6 +289,11 @@ fn run_case(base: &FlatNetlist, sets: &[String], axes: &[Axis], spec: &RunSpec, 
     }
 }
 
+/// Default of `--max-cases`: a sweep larger than this runs as shards.
+pub const DEFAULT_MAX_CASES: usize = 100_000;
+/// Largest case index a sweep may number.
+const MAX_INDEX: u64 = 1 << 40;
+
 fn cycle_columns(k: usize) -> [String; 3] {
     [format!("cycle{k}_extend_s"), format!("cycle{k}_retract_s"), format!("cycle{k}_total_s")]
 }
@@ -351,7 +360,12 @@ pub fn run(a: &SweepArgs) -> Result<(), CliError> {
         }
     }
     // The file is read once; --set errors stop the sweep before any case runs.
-    let base = flat_netlist(&a.model, &[])?;
+    let (base, inputs) = crate::load::netlist_with_files(&a.model, &[])?;
+    let inputs: Vec<&std::path::Path> = inputs.iter().map(|p| p.as_path()).collect();
+    let mut outputs = crate::output::Transaction::new(&inputs);
+    if let Some(out) = &a.out {
+        outputs.check_targets(&[out])?;
+    }
     let mut with_sets = base.clone();
     for s in &a.sets {
         graph::apply_set(&mut with_sets, s)?;
@@ -366,10 +380,20 @@ pub fn run(a: &SweepArgs) -> Result<(), CliError> {
     let total = axes
         .iter()
         .try_fold(1usize, |n, x| n.checked_mul(x.texts.len()))
-        .filter(|&n| n <= 100_000_000)
-        .ok_or_else(|| CliError::Usage("the sweep has too many cases".into()))?;
+        .filter(|&n| n as u64 <= MAX_INDEX)
+        .ok_or_else(|| CliError::Usage(format!("the sweep has more than {MAX_INDEX} cases")))?;
+    let mine = match shard {
+        Some((k, n)) => total / n + usize::from(k - 1 < total % n),
+        None => total,
+    };
+    if mine > a.max_cases {
+        return Err(CliError::Usage(format!(
+            "this sweep would run {mine} cases, more than --max-cases {} (raise it, or split the sweep with --shard K/N)",
+            a.max_cases
+        )));
+    }
     let selected: Vec<usize> = match shard {
-        Some((k, n)) => (0..total).filter(|i| i % n == k - 1).collect(),
+        Some((k, n)) => (k - 1..total).step_by(n).collect(),
         None => (0..total).collect(),
     };
     let temps = temperature_columns(&with_sets, &axes, total);
@@ -404,7 +428,8 @@ pub fn run(a: &SweepArgs) -> Result<(), CliError> {
     let table = build_table(&axes, &temps, ncyc, total, &outcomes);
     if let Some(path) = &a.out {
         let bytes = if is_json(path) { to_json(&table) } else { to_csv(&table)? };
-        write_atomic(path, &bytes)?;
+        outputs.add(path, &bytes)?;
+        outputs.commit()?;
     }
     print!("{}", summary_table(&axes, &outcomes));
     let failed = outcomes.iter().filter(|o| o.error.is_some()).count();
@@ -576,6 +601,9 @@ fn read_json(path: &Path, text: &str) -> Result<Table, CliError> {
 }
 
 pub fn merge(a: &MergeArgs) -> Result<(), CliError> {
+    let inputs: Vec<&std::path::Path> = a.inputs.iter().map(|p| p.as_path()).collect();
+    let mut outputs = crate::output::Transaction::new(&inputs);
+    outputs.check_targets(&[&a.out])?;
     let mut tables = Vec::with_capacity(a.inputs.len());
     for path in &a.inputs {
         let text = std::fs::read_to_string(path).map_err(|e| CliError::io(path, e))?;
@@ -585,16 +613,17 @@ pub fn merge(a: &MergeArgs) -> Result<(), CliError> {
         }
         tables.push(t);
     }
-    let merged = merge_tables(&a.inputs, &tables)?;
+    let merged = merge_tables(&a.inputs, &tables, a.max_cases)?;
     let bytes = if is_json(&a.out) { to_json(&merged) } else { to_csv(&merged)? };
-    write_atomic(&a.out, &bytes)?;
+    outputs.add(&a.out, &bytes)?;
+    outputs.commit()?;
     println!("merged {} cases from {} files into {}", merged.rows.len(), tables.len(), a.out.display());
     Ok(())
 }
 
 /// Join tables whose headers agree (up to the number of cycle columns) and
 /// sort their rows by case; every case 0..n_cases must appear exactly once.
-fn merge_tables(paths: &[PathBuf], tables: &[Table]) -> Result<Table, CliError> {
+fn merge_tables(paths: &[PathBuf], tables: &[Table], max_cases: usize) -> Result<Table, CliError> {
     let fixed = |t: &Table| t.header.iter().filter(|h| !is_cycle_column(h)).cloned().collect::<Vec<_>>();
     // the header with the most cycle columns is the merged header
     let widest = (0..tables.len()).max_by_key(|&i| (tables[i].header.len(), std::cmp::Reverse(i))).unwrap_or(0);
@@ -625,6 +654,12 @@ fn merge_tables(paths: &[PathBuf], tables: &[Table]) -> Result<Table, CliError> 
             let (Some(case), Some(n)) = (index(row.first()), index(row.get(1))) else {
                 return Err(CliError::io(p, "a row has no valid case index or n_cases"));
             };
+            if n > max_cases as u64 {
+                return Err(CliError::Data(format!(
+                    "{}: n_cases = {n} is more than --max-cases {max_cases} (a corrupt file, or raise the limit)",
+                    crate::error::shown_path(p)
+                )));
+            }
             match total {
                 None => total = Some((n, f)),
                 Some((m, g)) if m != n => {
@@ -646,10 +681,11 @@ fn merge_tables(paths: &[PathBuf], tables: &[Table]) -> Result<Table, CliError> 
         }
     }
     let Some((total, _)) = total else { return Err(CliError::Usage("the inputs hold no cases".into())) };
-    let missing: Vec<String> = (0..total).filter(|i| !by_case.contains_key(i)).map(|i| i.to_string()).collect();
-    if !missing.is_empty() {
-        let shown = if missing.len() > 20 { format!("{}, ...", missing[..20].join(", ")) } else { missing.join(", ") };
-        return Err(CliError::Data(format!("{} of {total} cases missing: {shown}", missing.len())));
+    let n_missing = total - by_case.len() as u64;
+    if n_missing > 0 {
+        let first: Vec<String> = (0..total).filter(|i| !by_case.contains_key(i)).take(20).map(|i| i.to_string()).collect();
+        let more = if n_missing > 20 { ", ..." } else { "" };
+        return Err(CliError::Data(format!("{n_missing} of {total} cases missing: {}{more}", first.join(", "))));
     }
     Ok(Table { header, rows: by_case.into_values().map(|(_, r)| r).collect() })
 }
@@ -881,21 +917,21 @@ mod tests {
         let t = sample_table();
         let part = |keep: &[usize]| Table { header: t.header.clone(), rows: keep.iter().map(|&i| t.rows[i].clone()).collect() };
         let paths = [PathBuf::from("s1"), PathBuf::from("s2")];
-        assert_eq!(merge_tables(&paths, &[part(&[1]), part(&[0, 2])]).unwrap(), t);
-        let dup = merge_tables(&paths, &[part(&[1, 2]), part(&[0, 2])]).unwrap_err().to_string();
+        assert_eq!(merge_tables(&paths, &[part(&[1]), part(&[0, 2])], DEFAULT_MAX_CASES).unwrap(), t);
+        let dup = merge_tables(&paths, &[part(&[1, 2]), part(&[0, 2])], DEFAULT_MAX_CASES).unwrap_err().to_string();
         assert!(dup.contains("case 2 appears twice") && dup.contains("s1") && dup.contains("s2"), "{dup}");
-        let gap = merge_tables(&paths, &[part(&[0]), part(&[2])]).unwrap_err().to_string();
+        let gap = merge_tables(&paths, &[part(&[0]), part(&[2])], DEFAULT_MAX_CASES).unwrap_err().to_string();
         assert!(gap.contains("1 of 3 cases missing: 1"), "{gap}");
         // the last case missing is noticed through n_cases
-        let tail = merge_tables(&paths, &[part(&[0]), part(&[1])]).unwrap_err().to_string();
+        let tail = merge_tables(&paths, &[part(&[0]), part(&[1])], DEFAULT_MAX_CASES).unwrap_err().to_string();
         assert!(tail.contains("1 of 3 cases missing: 2"), "{tail}");
         let mut other = part(&[2]);
         other.header[2] = "b.y".into();
-        let e = merge_tables(&paths, &[part(&[0, 1]), other]).unwrap_err().to_string();
+        let e = merge_tables(&paths, &[part(&[0, 1]), other], DEFAULT_MAX_CASES).unwrap_err().to_string();
         assert!(e.contains("columns differ"), "{e}");
         let mut foreign = part(&[2]);
         foreign.rows[0][1] = Cell::Num(4.0);
-        let e = merge_tables(&paths, &[part(&[0, 1]), foreign]).unwrap_err().to_string();
+        let e = merge_tables(&paths, &[part(&[0, 1]), foreign], DEFAULT_MAX_CASES).unwrap_err().to_string();
         assert!(e.contains("different sweeps"), "{e}");
     }
 
@@ -921,7 +957,7 @@ mod tests {
                 Cell::Empty,
             ]],
         };
-        let m = merge_tables(&[PathBuf::from("a"), PathBuf::from("b")], &[short, long.clone()]).unwrap();
+        let m = merge_tables(&[PathBuf::from("a"), PathBuf::from("b")], &[short, long.clone()], DEFAULT_MAX_CASES).unwrap();
         assert_eq!(m.header, long.header);
         let e = Cell::Empty;
         assert_eq!(

@@ -16,7 +16,15 @@ use std::path::{Path, PathBuf};
 pub trait Loader {
     /// Read the file at `path` (already resolved against the including netlist).
     fn read(&self, path: &Path) -> Result<String, String>;
+    /// Most components a circuit may expand to (subsystems included); a
+    /// netlist that expands further is refused while it is expanded.
+    fn max_components(&self) -> usize {
+        DEFAULT_MAX_COMPONENTS
+    }
 }
+
+/// Default of [`Loader::max_components`].
+pub const DEFAULT_MAX_COMPONENTS: usize = 100_000;
 
 /// A named parameter after expansion: top-level (`bore`) or of a subsystem
 /// instance (`cyl.bore`).
@@ -139,6 +147,15 @@ fn expand(loader: &dyn Loader, netlist: &Netlist, file: &Path, chain: &mut Vec<P
             });
         }
         if c.kind != "subsystem" {
+            if components.len() >= loader.max_components() {
+                return Err(GraphError::Subsystem {
+                    id: c.id.clone(),
+                    message: format!(
+                        "{origin}: the circuit has more than {} components; raise the limit with --max-components",
+                        loader.max_components()
+                    ),
+                });
+            }
             components.push(Component { origin: origin.clone(), ..c.clone() });
             continue;
         }
@@ -161,6 +178,15 @@ fn expand(loader: &dyn Loader, netlist: &Netlist, file: &Path, chain: &mut Vec<P
         chain.push(path.clone());
         let inner = expand(loader, &sub, &path, chain)?;
         chain.pop();
+        if components.len() + inner.components.len() > loader.max_components() {
+            return Err(GraphError::Subsystem {
+                id: c.id.clone(),
+                message: format!(
+                    "{origin}: the circuit expands to more than {} components (subsystems included); raise the limit with --max-components",
+                    loader.max_components()
+                ),
+            });
+        }
         let interface = sub.interface.clone().unwrap_or_default();
         let prefix = |name: &str| format!("{}.{name}", c.id);
         let mut inner_components: Vec<Component> = inner

@@ -94,6 +94,7 @@ pub fn median(v: &mut [f64]) -> Option<f64> {
 
 /// Parse CSV text; `origin` names the file in errors.
 pub fn parse_csv(text: &str, origin: &str) -> Result<Dataset, DataError> {
+    let text = text.strip_prefix('\u{feff}').unwrap_or(text);
     let mut lines = text.lines().enumerate().map(|(i, l)| (i + 1, l.trim_end_matches('\r'))).filter(|(_, l)| {
         let t = l.trim();
         !t.is_empty() && !t.starts_with('#')

@@ -81,6 +81,7 @@ pub enum ManifestError {
 
 /// Parse manifest text; `origin` names the file in errors.
 pub fn parse(text: &str, origin: &str) -> Result<Manifest, ManifestError> {
+    let text = text.strip_prefix('\u{feff}').unwrap_or(text);
     let m: Manifest = serde_json::from_str(text).map_err(|e| ManifestError::Json {
         file: origin.to_string(),
         line: e.line(),

@@ -1,12 +1,13 @@
 //! Flattening a wired circuit into one hybrid ODE and integrating it.
 //!
-//! Owns: the flat state vector and right-hand side ([`model`]), algebraic
+//! Owns: the resource estimate of a run ([`budget`]), the flat state vector and right-hand side ([`model`]), algebraic
 //! junctions ([`junction`]), stick–slip and end-stop modes of mechanical
 //! nodes ([`mechanics`]), the rest state before t = 0 ([`rest`]), the event loop and result sampling ([`simulate`]),
 //! and the reading of simulation settings ([`settings`]).
 //! Never knows: concrete block types (blocks are reached through the
 //! `Block` trait only), files, terminals.
 
+pub mod budget;
 pub mod junction;
 pub mod mechanics;
 pub mod model;

@@ -1,0 +1,265 @@
+//! Hostile input through the `pneumo` binary: for every kind of abuse the
+//! reliability issue lists — data loss, unbounded resources, crashes, unclear
+//! messages — the command must end cleanly: no panic, no hang (each run has a
+//! time limit here), exactly one `error:` line with a non-zero exit, every
+//! pre-existing file byte for byte as it was and no temporary left behind.
+
+mod common;
+
+use common::{repo, Scratch};
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output, Stdio};
+use std::time::{Duration, Instant};
+
+/// Run pneumo in `dir` with a wall-clock limit (a hang fails the test, it does not block it).
+fn pneumo(dir: &Path, args: &[&str]) -> Output {
+    let mut child = Command::new(env!("CARGO_BIN_EXE_pneumo"))
+        .args(args)
+        .current_dir(dir)
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("start pneumo");
+    let start = Instant::now();
+    loop {
+        if child.try_wait().expect("wait").is_some() {
+            return child.wait_with_output().expect("output");
+        }
+        if start.elapsed() > Duration::from_secs(60) {
+            let _ = child.kill();
+            panic!("pneumo {args:?} did not finish within 60 s");
+        }
+        std::thread::sleep(Duration::from_millis(20));
+    }
+}
+
+fn text(b: &[u8]) -> String {
+    String::from_utf8_lossy(b).into_owned()
+}
+
+/// Every file in `dir` with its bytes.
+fn snapshot(dir: &Path) -> Vec<(String, Vec<u8>)> {
+    let mut files: Vec<(String, Vec<u8>)> = std::fs::read_dir(dir)
+        .expect("list")
+        .filter_map(|e| e.ok())
+        .filter(|e| e.path().is_file())
+        .map(|e| (e.file_name().to_string_lossy().into_owned(), std::fs::read(e.path()).expect("read")))
+        .collect();
+    files.sort();
+    files
+}
+
+/// The command fails with one clear line containing `needles`, exit status
+/// 1 or 2, and leaves `dir` exactly as it was.
+fn fails_cleanly(dir: &Scratch, args: &[&str], needles: &[&str]) -> String {
+    let before = snapshot(&dir.0);
+    let out = pneumo(&dir.0, args);
+    let err = text(&out.stderr);
+    let code = out.status.code();
+    assert!(matches!(code, Some(1) | Some(2)), "pneumo {args:?}: exit {code:?} (a panic is 101, a signal None); stderr:\n{err}");
+    let errors: Vec<&str> = err.lines().filter(|l| !l.starts_with("warning: ")).collect();
+    assert_eq!(errors.len(), 1, "pneumo {args:?}: want one error line, got:\n{err}");
+    assert!(errors[0].starts_with("error: "), "{err}");
+    assert!(!errors[0].contains('\u{1b}'), "terminal escape echoed: {err:?}");
+    for n in needles {
+        assert!(errors[0].contains(n), "pneumo {args:?}: message lacks {n:?}: {err}");
+    }
+    assert_eq!(snapshot(&dir.0), before, "pneumo {args:?} changed the files of its folder");
+    errors[0].to_string()
+}
+
+fn model() -> PathBuf {
+    repo().join("models/meter_out.json")
+}
+
+/// A copy of the meter-out netlist in `dir` (so that outputs may be written beside it).
+fn local_model(dir: &Scratch) -> String {
+    let text = std::fs::read_to_string(model()).expect("model");
+    dir.write("m.json", &text);
+    std::fs::create_dir_all(dir.path("lib")).expect("lib");
+    let lib = std::fs::read_to_string(repo().join("models/lib/cylinder.json")).expect("lib");
+    std::fs::write(dir.path("lib/cylinder.json"), lib).expect("write lib");
+    "m.json".to_string()
+}
+
+// ------------------------------------------------------------------ data loss
+
+#[test]
+fn an_output_equal_to_the_input_or_to_another_output_is_refused() {
+    let dir = Scratch::new("same-file");
+    let m = local_model(&dir);
+    fails_cleanly(&dir, &["simulate", &m, "--cycles", "1", "--out", "m.json"], &["m.json", "input"]);
+    fails_cleanly(&dir, &["simulate", &m, "--cycles", "1", "--out", "r.csv", "--summary", "./r.csv"], &["same file"]);
+    fails_cleanly(&dir, &["check", &m, "--dot", "m.json"], &["input"]);
+    fails_cleanly(&dir, &["sweep", &m, "--vary", "supply.p=4 bar,5 bar", "--out", "m.json"], &["input"]);
+    std::fs::write(dir.path("r.csv"), "t,a.p\n0,1\n1,2\n").unwrap();
+    // (plot writes only .png/.svg, which no input is: its format check refuses first)
+    fails_cleanly(&dir, &["plot", "r.csv", "-o", "r.csv"], &[".png"]);
+    fails_cleanly(&dir, &["merge", "r.csv", "--out", "r.csv"], &["input"]);
+}
+
+#[test]
+fn a_failing_output_leaves_the_earlier_ones_untouched() {
+    let dir = Scratch::new("partial");
+    let m = local_model(&dir);
+    std::fs::write(dir.path("r.csv"), "precious").unwrap();
+    // --summary into a folder that does not exist: nothing is written, r.csv keeps its bytes
+    fails_cleanly(&dir, &["simulate", &m, "--cycles", "1", "--out", "r.csv", "--summary", "missing/s.json"], &["missing"]);
+    // an unsupported plot format is found before the run
+    fails_cleanly(&dir, &["simulate", &m, "--cycles", "1", "--out", "r.csv", "--plot", "f.jpg"], &[".png"]);
+}
+
+// ------------------------------------------------------------------ resources
+
+#[test]
+fn unbounded_runs_are_refused_before_they_start() {
+    let dir = Scratch::new("budget");
+    let m = model();
+    let m = m.to_str().unwrap();
+    for (set, needle) in [
+        ("simulation.sample_interval=1e-12", "--max-memory"),
+        ("simulation.t_end=1e12", "max_step"),
+        ("simulation.cycles=1000000000000", "steps"),
+        ("simulation.max_step=1e-15", "max_step"),
+    ] {
+        fails_cleanly(&dir, &["simulate", m, "--set", set, "--summary", "s.json"], &[needle]);
+    }
+    // the same run passes when the user raises the limit consciously (here: only checked, not run)
+    let lots: Vec<String> = (0..400).map(|i| format!("{} bar", 3.0 + i as f64 * 1e-3)).collect();
+    let c: Vec<String> = (0..400).map(|i| format!("{} L/min/bar", 10.0 + i as f64 * 1e-2)).collect();
+    fails_cleanly(
+        &dir,
+        &["sweep", m, "--vary", &format!("supply.p={}", lots.join(",")), "--vary", &format!("flow_control.C={}", c.join(","))],
+        &["160000 cases", "--max-cases", "--shard"],
+    );
+}
+
+#[test]
+fn absurd_physical_values_are_rejected_at_load() {
+    let dir = Scratch::new("absurd");
+    let m = model();
+    let m = m.to_str().unwrap();
+    fails_cleanly(&dir, &["check", m, "--set", "head.T_wall=3e22"], &["\"head\"", "T_wall", "3000 K"]);
+    fails_cleanly(&dir, &["check", m, "--set", "supply.p=nan"], &["\"supply\"", "\"p\""]);
+    fails_cleanly(&dir, &["check", m, "--set", "supply.p=-1 bar"], &["\"supply\"", "\"p\""]);
+    fails_cleanly(&dir, &["check", m, "--set", "piston.mass=0 kg"], &["\"piston\"", "mass"]);
+}
+
+#[test]
+fn endless_or_huge_input_files_are_refused() {
+    let dir = Scratch::new("devzero");
+    if Path::new("/dev/zero").exists() {
+        fails_cleanly(&dir, &["check", "/dev/zero"], &["/dev/zero", "MiB"]);
+    }
+    // a corrupt shard claiming 1e14 cases
+    std::fs::write(dir.path("s.csv"), "case,n_cases,a.x,cycle1_total_s,error\n0,100000000000000,1,2,\n").unwrap();
+    fails_cleanly(&dir, &["merge", "s.csv", "--out", "m.csv"], &["n_cases", "--max-cases"]);
+}
+
+#[test]
+fn a_subsystem_fan_out_is_stopped_while_expanding() {
+    // level k includes level k+1 four times: 4^12 = 16.7 M components
+    let dir = Scratch::new("fanout");
+    for k in 0..12 {
+        let subs: Vec<String> = (0..4).map(|i| format!(r#"{{ "id": "s{i}", "type": "subsystem", "file": "l{}.json" }}"#, k + 1)).collect();
+        dir.write(&format!("l{k}.json"), &format!(r#"{{ "components": [{}], "connections": [] }}"#, subs.join(",")));
+    }
+    dir.write("l12.json", r#"{ "components": [{ "id": "t", "type": "chamber", "params": { "dead_volume": "1 L" } }] }"#);
+    fails_cleanly(&dir, &["check", "l0.json"], &["more than 100000 components", "--max-components"]);
+}
+
+#[test]
+fn a_circuit_too_large_for_the_dense_solver_is_refused_with_the_limit() {
+    // 5000 tanks in a chain: 10 000 states, a 1.6 GB dense Jacobian
+    let dir = Scratch::new("big");
+    let mut comps = vec![r#"{ "id": "supply", "type": "pressure_source", "params": { "p": "6 bar" } }"#.to_string()];
+    let mut conns = Vec::new();
+    let mut prev = "supply.port".to_string();
+    for i in 0..5000 {
+        comps.push(format!(r#"{{ "id": "c{i}", "type": "conductance", "params": {{ "C": "10 L/min/bar", "b": 0.3 }} }}"#));
+        comps.push(format!(r#"{{ "id": "t{i}", "type": "chamber", "params": {{ "dead_volume": "1 L" }} }}"#));
+        conns.push(format!(r#"["{prev}", "c{i}.a"]"#));
+        conns.push(format!(r#"["c{i}.b", "t{i}.port"]"#));
+        prev = format!("t{i}.port");
+    }
+    dir.write("big.json", &format!(r#"{{ "components": [{}], "connections": [{}] }}"#, comps.join(","), conns.join(",")));
+    fails_cleanly(&dir, &["simulate", "big.json", "--t-end", "1", "--summary", "s.json"], &["states", "--max-memory"]);
+}
+
+// ------------------------------------------------------------------ crashes
+
+#[test]
+fn plots_of_nan_infinite_and_extreme_data_do_not_crash() {
+    let dir = Scratch::new("plot");
+    let cases = [
+        ("nan.csv", "t,a.p\n0,NaN\n1,NaN\n2,NaN\n"),
+        ("big.csv", "t,a.p\n0,1e308\n1,-1e308\n2,0\n"),
+        ("inf.csv", "t,a.p\n0,inf\n1,-inf\n2,1\n"),
+        ("wide.csv", "t,a.p\n0,1\n1e300,2\n"),
+        ("xy.csv", "t,a.p,a.x\n0,1,1e308\n1,2,-1e308\n"),
+    ];
+    for (name, body) in cases {
+        dir.write(name, body);
+        let out = pneumo(&dir.0, &["plot", name, "-o", &format!("{name}.png")]);
+        assert!(out.status.success(), "{name}: {}", text(&out.stderr));
+    }
+    let out = pneumo(&dir.0, &["plot", "xy.csv", "--x", "a.x", "-o", "xy.svg"]);
+    assert!(out.status.success(), "{}", text(&out.stderr));
+}
+
+// ------------------------------------------------------------------ messages
+
+#[test]
+fn control_characters_from_the_input_are_never_echoed() {
+    let dir = Scratch::new("escape");
+    let m = model();
+    let m = m.to_str().unwrap();
+    fails_cleanly(&dir, &["simulate", m, "--set", "no\u{1b}[31mpe\nx.p=1 bar"], &["\\u{1b}"]);
+    dir.write("bad.json", "{ \"components\": [ { \"id\": \"a\u{1b}[2J\nb\", \"type\": \"chamber\" } ] }");
+    fails_cleanly(&dir, &["check", "bad.json"], &["bad.json"]);
+}
+
+#[test]
+fn usage_errors_are_one_line_and_help_stays_rich() {
+    let dir = Scratch::new("usage");
+    for args in [&["simulate"][..], &["simulat"], &["simulate", "m.json", "--cycles", "many"], &["sweep", "m.json"]] {
+        let out = pneumo(&dir.0, args);
+        assert_eq!(out.status.code(), Some(2), "{args:?}");
+        let err = text(&out.stderr);
+        assert_eq!(err.lines().count(), 1, "{args:?}: {err}");
+        assert!(err.starts_with("error: ") && err.contains("--help"), "{err}");
+    }
+    let out = pneumo(&dir.0, &["simulate", "--help"]);
+    assert!(out.status.success());
+    assert!(text(&out.stdout).lines().count() > 10, "--help lost its text");
+}
+
+#[test]
+fn ids_with_dots_byte_order_marks_and_recursion_are_clear() {
+    let dir = Scratch::new("ids");
+    dir.write("dot.json", r#"{ "components": [ { "id": "a.b", "type": "chamber", "params": { "dead_volume": "1 L" } } ] }"#);
+    fails_cleanly(&dir, &["check", "dot.json"], &["dot.json", "\"a.b\"", "'_' and '-'"]);
+    // a byte-order mark before a valid netlist is accepted
+    let text = std::fs::read_to_string(model()).unwrap();
+    let lib = std::fs::read_to_string(repo().join("models/lib/cylinder.json")).unwrap();
+    std::fs::create_dir_all(dir.path("lib")).unwrap();
+    std::fs::write(dir.path("lib/cylinder.json"), lib).unwrap();
+    dir.write("bom.json", &format!("\u{feff}{text}"));
+    let out = pneumo(&dir.0, &["check", "bom.json"]);
+    assert!(out.status.success(), "{}", self::text(&out.stderr));
+    // a subsystem including itself names the file
+    dir.write("self.json", r#"{ "components": [ { "id": "me", "type": "subsystem", "file": "self.json" } ] }"#);
+    fails_cleanly(&dir, &["check", "self.json"], &["self.json -> self.json"]);
+}
+
+#[test]
+fn a_manifest_cannot_make_pneumo_read_and_quote_files_outside_its_folder() {
+    let dir = Scratch::new("manifest");
+    std::fs::create_dir_all(dir.path("exp")).unwrap();
+    dir.write("secret.csv", "root:x:0:0:secret\n");
+    let manifest = r#"{ "experiments": [ { "data": "../secret.csv", "set": {}, "columns": { "p": "head.p" } } ] }"#;
+    dir.write("exp/e.json", manifest);
+    let m = model();
+    let err = fails_cleanly(&dir, &["discrepancy", m.to_str().unwrap(), "--experiments", "exp/e.json"], &["outside the manifest's folder"]);
+    assert!(!err.contains("root:x"), "{err}");
+}
