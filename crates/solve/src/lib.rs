@@ -15,4 +15,4 @@ pub mod simulate;
 
 pub use model::{Model, ModelError};
 pub use settings::options_from;
-pub use simulate::{simulate, Balance, EventLog, SimOptions, SimResult, SolveError};
+pub use simulate::{simulate, simulate_observed, Balance, Checkpoint, CheckpointKind, EventLog, SimOptions, SimResult, SolveError};
