@@ -164,6 +164,10 @@ pub struct DryFriction {
     pub sliding: f64,
     /// Breakaway (static) level: the largest force held while stuck [N] (≥ 0).
     pub breakaway: f64,
+    /// Viscous slope c [N s/m] (≥ 0): the part c·|v| of `sliding`. The node
+    /// logic continues it as −c·v past v = 0, so that a sliding mode's
+    /// equations stay smooth across the reversal that ends the mode.
+    pub viscous: f64,
 }
 
 /// Force a block exerts on a mechanical node.
@@ -378,7 +382,11 @@ pub trait Block: std::fmt::Debug + Send + Sync {
     fn n_event_functions(&self) -> usize {
         0
     }
-    /// Root functions; an event fires when one changes sign.
+    /// Root functions: each is negative while nothing happens, and the event
+    /// is its becoming strictly positive (zero is not yet an event). After
+    /// [`Block::on_event`] the function must be back at or below zero, or it
+    /// is handled again at the same instant (a condition that stays true is an
+    /// error, not a silent loop). One that cannot fire in the current state is −1.
     fn event_functions(&self, _ctx: &Ctx, _out: &mut [f64]) {}
     /// Next time-triggered event strictly after `t`, if any.
     fn next_time_event(&self, _t: f64) -> Option<f64> {

@@ -16,7 +16,9 @@
 //! # Equations
 //! Sliding force magnitude at speed |v| (paper Eq. 37 plus Stribeck):
 //! F_f(v) = F_c + (F_s − F_c)·exp(−(|v|/v_s)²) + max(c, 0)·|v|,
-//! applied against the motion. Without Stribeck (v_s = 0) the sliding level is
+//! applied against the motion; computed as F_s − (F_s − F_c)·(1 − exp(…)) so
+//! that F_f(0) is F_s to the last bit (a node breaking away at F = F_s must
+//! not start backwards by a rounding error). Without Stribeck (v_s = 0) the sliding level is
 //! F_c + c|v| and F_s is only the level to break away from rest.
 //! Stick–slip (Karnopp 1985), implemented by the mechanical node logic in
 //! `solve`: while stuck, the friction balances the other forces exactly as
@@ -94,9 +96,14 @@ impl Friction {
     /// Sliding friction magnitude at speed |v| [N].
     pub fn sliding(&self, v: f64, p1: f64, p2: f64) -> f64 {
         let fc = self.coulomb(p1, p2);
-        let stribeck =
-            if self.stribeck_velocity > 0.0 { (self.breakaway(p1, p2) - fc) * (-(v / self.stribeck_velocity).powi(2)).exp() } else { 0.0 };
-        fc + stribeck + self.viscous(p1, p2) * v.abs()
+        let dry = if self.stribeck_velocity > 0.0 {
+            let fs = self.breakaway(p1, p2);
+            // 1 − exp(−u) as −expm1(−u): exactly 0 at v = 0
+            fs + (fs - fc) * (-(v / self.stribeck_velocity).powi(2)).exp_m1()
+        } else {
+            fc
+        };
+        dry + self.viscous(p1, p2) * v.abs()
     }
     /// Signed friction force on a node sliding at velocity v ≠ 0 (opposes motion) [N].
     pub fn sliding_force(&self, v: f64, p1: f64, p2: f64) -> f64 {
@@ -114,8 +121,14 @@ impl Block for Friction {
     fn forces(&self, ctx: &Ctx, out: &mut [PortForce]) {
         let (p1, p2) = (ctx.signals[0], ctx.signals[1]);
         let v = ctx.mechanical[0].v;
-        out[0] =
-            PortForce { applied: 0.0, friction: Some(DryFriction { sliding: self.sliding(v, p1, p2), breakaway: self.breakaway(p1, p2) }) };
+        out[0] = PortForce {
+            applied: 0.0,
+            friction: Some(DryFriction {
+                sliding: self.sliding(v, p1, p2),
+                breakaway: self.breakaway(p1, p2),
+                viscous: self.viscous(p1, p2),
+            }),
+        };
     }
     fn outputs(&self) -> &[OutputSpec] {
         OUTPUTS
@@ -189,7 +202,7 @@ mod tests {
         f.k2 = 0.0;
         f.k3 = 0.0;
         let (fc, fs) = (f.coulomb(1e5, 1e5), f.breakaway(1e5, 1e5));
-        assert!((f.sliding(0.0, 1e5, 1e5) - fs).abs() < 1e-12);
+        assert_eq!(f.sliding(0.0, 1e5, 1e5), fs, "exactly the breakaway level at rest");
         assert!((f.sliding(0.1, 1e5, 1e5) - fc).abs() < 1e-9 * fc);
         assert!(f.sliding(0.005, 1e5, 1e5) < fs && f.sliding(0.005, 1e5, 1e5) > fc);
     }

@@ -107,10 +107,41 @@ pub trait OdeSystem {
     fn n_roots(&self) -> usize {
         0
     }
-    /// Root functions g(t, y); the integrator stops where any of them changes sign (either direction).
+    /// Root functions g(t, y); the integrator stops where one of them changes
+    /// sign in its [`RootDirection`].
     fn roots(&mut self, _t: f64, _y: &[f64], _g: &mut [f64]) -> Result<(), RhsError> {
         Ok(())
     }
+    /// Which sign changes of each root function are events (`out.len() ==
+    /// n_roots()`). Asked whenever the integrator (re)starts — on its first
+    /// call, after [`Integrator::reset`] and after returning at a root — since
+    /// a caller's discrete state may change the functions. Default: every
+    /// function [`RootDirection::Either`].
+    fn root_directions(&self, out: &mut [RootDirection]) {
+        out.fill(RootDirection::Either);
+    }
+}
+
+/// Which sign changes of a root function are events; the meaning of
+/// SUNDIALS' `CVodeSetRootDirection` (+1, −1, 0).
+///
+/// A direction also says which side is the "no event" side, which settles
+/// what a function that is exactly zero at a (re)start means: a
+/// [`RootDirection::Rising`] function at zero is taken to be on its negative
+/// side, so it fires as soon as it becomes positive, however soon that is.
+/// An [`RootDirection::Either`] function at zero at a restart takes its side
+/// from its value a little after the start (as SUNDIALS does), which cannot
+/// tell "just crossed" from "about to cross"; give such functions a direction
+/// when that matters.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum RootDirection {
+    /// Either sign change.
+    #[default]
+    Either,
+    /// From negative to positive only; negative is the "no event" side.
+    Rising,
+    /// From positive to negative only; positive is the "no event" side.
+    Falling,
 }
 
 /// Integration options.
@@ -198,7 +229,8 @@ pub trait Dense {
 pub enum Advance {
     /// `t == t_stop`.
     Reached,
-    /// Stopped just past a sign change of the listed root functions.
+    /// Stopped just past a sign change of the listed root functions (each of
+    /// them strictly on its new side).
     Root { indices: Vec<usize> },
 }
 
@@ -220,8 +252,10 @@ pub struct Stats {
 /// A time-stepping method.
 pub trait Integrator {
     /// Advance (t, y) towards t_stop. Returns Reached with t == t_stop, or Root with (t, y) just past the first sign change
-    /// (the root bracket narrowed below root_tol; the returned point is on the NEW side so that the caller sees the changed sign),
-    /// `indices` listing every root function whose sign differs between the step start and the returned point.
+    /// (the root bracket narrowed below root_tol; the returned point is strictly on the NEW side, never at an exact zero, so
+    /// that the caller sees the changed sign), `indices` listing every root function that has changed sign in its
+    /// [`RootDirection`] between the step start and the returned point. A function exactly zero at the step start is
+    /// watched from the side its direction calls "no event" (see [`RootDirection`]).
     /// `observer` is called for every accepted step with its dense output, truncated at the returned point, so the caller can sample outputs.
     fn advance(
         &mut self,

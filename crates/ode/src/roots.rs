@@ -6,18 +6,62 @@
 //! root finder of the SUNDIALS solvers (A. C. Hindmarsh et al., ACM TOMS 31 (2005)
 //! 363–396, §"rootfinding"): the secant trial point comes from the function whose
 //! secant estimate is earliest; the bracket `[t_lo, t_hi]` keeps the invariant
-//! "no function has changed sign at `t_lo`, at least one has at `t_hi`", relative
-//! to the signs at the step start. A bisection is forced whenever two iterations
-//! fail to halve the bracket, so the iteration count is O(log(h/tol)) at worst.
+//! "no watched function has changed at `t_lo`, at least one has at `t_hi`". A
+//! bisection is forced whenever two iterations fail to halve the bracket, so the
+//! iteration count is O(log(h/tol)) at worst.
 //!
-//! Sign rule: function `i` has changed when its start value `g0_i` is non-zero and
-//! its current value is zero or of the other sign. A function that is exactly
-//! zero at the step start is ignored for that step (the caller has just handled
-//! that event). The returned point is `t_hi`, so the caller sees the new sign.
+//! Sign rule. Each function is watched during a step from one side, its
+//! *watch* `w`: `w = +1` watches for it to become negative, `w = −1` for it to
+//! become positive, `w = 0` not at all (see [`watch`]). It has changed when its
+//! value is strictly on the other side, `w·g < 0`; a value of exactly zero is
+//! not a change. So the point returned is strictly on the new side, and a caller
+//! whose own test of the condition is strict (`F > F_s`, say) always agrees with
+//! the integrator about whether the event happened. (SUNDIALS counts a zero as a
+//! root; a function that only touches zero is then an event here and a
+//! non-event in a strict mode test, which is the disagreement this rule avoids.)
 
-/// `true` if a root function has left the sign it had at the step start.
-pub(crate) fn changed(g_start: f64, g: f64) -> bool {
-    g_start != 0.0 && (g == 0.0 || (g > 0.0) != (g_start > 0.0))
+use crate::RootDirection;
+
+/// The side from which a root function is watched during one step: `+1.0`
+/// (now positive or on its positive "no event" side), `−1.0`, or `0.0` (not
+/// watched this step).
+///
+/// `g0` is its value at the step start. A non-zero value gives the side. An
+/// exact zero is taken, for a directional function, to be on its "no event"
+/// side (negative for [`RootDirection::Rising`]), so that a function left at
+/// its threshold by the caller and then moving into the event side is
+/// reported at once; for [`RootDirection::Either`] the caller supplies
+/// `zero_side` (the sign the function had before, or its sign just after the
+/// start). A directional function that starts strictly on its event side is not
+/// watched until it has come back (the meaning of a direction in SUNDIALS'
+/// `CVodeSetRootDirection`).
+pub(crate) fn watch(direction: RootDirection, g0: f64, zero_side: f64) -> f64 {
+    let sign = |v: f64| {
+        if v > 0.0 {
+            1.0
+        } else if v < 0.0 {
+            -1.0
+        } else {
+            0.0
+        }
+    };
+    let side = match (sign(g0), direction) {
+        (s, _) if s != 0.0 => s,
+        (_, RootDirection::Rising) => -1.0,
+        (_, RootDirection::Falling) => 1.0,
+        (_, RootDirection::Either) => sign(zero_side),
+    };
+    match direction {
+        RootDirection::Either => side,
+        RootDirection::Rising if side < 0.0 => -1.0,
+        RootDirection::Falling if side > 0.0 => 1.0,
+        _ => 0.0,
+    }
+}
+
+/// `true` if a function watched from side `w` (see [`watch`]) is now strictly on the other side.
+pub(crate) fn changed(w: f64, g: f64) -> bool {
+    w * g < 0.0
 }
 
 /// Evaluator of the root functions at a time: `eval(t, g)`.
@@ -45,13 +89,16 @@ impl RootFinder {
     }
 
     /// Narrow `[t_lo, t_hi]` (either orientation) to width ≤ `tol` around the first
-    /// sign change. `g_start` are the values at the step start (= at `t_lo` on entry),
+    /// sign change. `watch` holds the side each function is watched from (see
+    /// [`watch`]), `g_start` the values at the step start (= at `t_lo` on entry),
     /// `g_end` those at `t_hi` (at least one must have `changed`). `eval(t, g)` fills
     /// the root functions at `t`. Returns the final `t_hi`; its values are in `self.g_hi`.
+    #[allow(clippy::too_many_arguments)]
     pub(crate) fn locate<E>(
         &mut self,
         t_lo: f64,
         t_hi: f64,
+        watch: &[f64],
         g_start: &[f64],
         g_end: &[f64],
         tol: f64,
@@ -75,13 +122,14 @@ impl RootFinder {
             // Earliest secant estimate among functions bracketed by [lo, hi].
             let mut frac = -1.0_f64;
             for i in 0..m {
-                if !changed(g_start[i], self.g_hi[i]) {
+                if !changed(watch[i], self.g_hi[i]) {
                     continue;
                 }
                 let a = w_lo * self.g_lo[i];
                 let b = w_hi * self.g_hi[i];
                 let denom = b - a;
-                // a and b have opposite signs (or b == 0), so 0 ≤ b/(b − a) ≤ 1.
+                // a and b have opposite signs (or a == 0 for a function that starts
+                // at zero), so 0 ≤ b/(b − a) ≤ 1.
                 let f = if denom != 0.0 { b / denom } else { 0.5 };
                 if f > frac {
                     frac = f;
@@ -98,7 +146,7 @@ impl RootFinder {
                 break; // no representable point left between the ends
             }
             eval(mid, &mut self.g_mid)?;
-            let crossed = (0..m).any(|i| changed(g_start[i], self.g_mid[i]));
+            let crossed = (0..m).any(|i| changed(watch[i], self.g_mid[i]));
             if crossed {
                 hi = mid;
                 std::mem::swap(&mut self.g_hi, &mut self.g_mid);
@@ -134,12 +182,68 @@ mod tests {
     use super::*;
 
     #[test]
-    fn sign_rule() {
+    fn sign_rule_is_strict() {
         assert!(changed(1.0, -1.0));
-        assert!(changed(-1.0, 0.0));
-        assert!(!changed(0.0, 1.0));
-        assert!(!changed(2.0, 1.0));
+        assert!(changed(-1.0, 1e-300));
+        assert!(!changed(-1.0, 0.0), "reaching zero is not yet a change");
+        assert!(!changed(0.0, 1.0) && !changed(0.0, -1.0), "not watched");
+        assert!(!changed(1.0, 2.0));
         assert!(!changed(-2.0, -1e-300));
+    }
+
+    #[test]
+    fn watch_sides() {
+        use RootDirection::*;
+        // non-zero start: its own sign, unless a direction says it cannot fire
+        assert_eq!(watch(Either, 3.0, 0.0), 1.0);
+        assert_eq!(watch(Rising, -3.0, 0.0), -1.0);
+        assert_eq!(watch(Rising, 3.0, 0.0), 0.0);
+        assert_eq!(watch(Falling, 3.0, 0.0), 1.0);
+        assert_eq!(watch(Falling, -3.0, 0.0), 0.0);
+        // zero start: the "no event" side of a directional function, whatever the
+        // value just after the start; the supplied side for Either
+        assert_eq!(watch(Rising, 0.0, 1.0), -1.0);
+        assert_eq!(watch(Falling, 0.0, -1.0), 1.0);
+        assert_eq!(watch(Either, 0.0, -1e-9), -1.0);
+        assert_eq!(watch(Either, 0.0, 0.0), 0.0);
+    }
+
+    #[test]
+    fn function_starting_at_zero_is_located_just_after_the_start() {
+        // g = t − 0.25 on [0.25, 1] with a Rising watch: the change is at the start;
+        // the point returned is within tol after it and strictly positive.
+        let mut rf = RootFinder::new(1);
+        let f = |t: f64, g: &mut [f64]| g[0] = t - 0.25;
+        let (mut gs, mut ge) = ([0.0], [0.0]);
+        f(0.25, &mut gs);
+        f(1.0, &mut ge);
+        assert_eq!(gs[0], 0.0);
+        let w = [watch(RootDirection::Rising, gs[0], 0.0)];
+        let t = rf
+            .locate::<()>(0.25, 1.0, &w, &gs, &ge, 1e-12, &mut |t, g| {
+                f(t, g);
+                Ok(())
+            })
+            .unwrap();
+        assert!(t > 0.25 && t - 0.25 <= 1e-12 && rf.g_hi[0] > 0.0, "t = {t}, g = {}", rf.g_hi[0]);
+    }
+
+    #[test]
+    fn located_point_is_strictly_past_an_exactly_representable_root() {
+        // g = 0.5 − t has its root at a representable point: the secant step lands
+        // on it (g = 0 exactly), which must not end the search.
+        let mut rf = RootFinder::new(1);
+        let f = |t: f64, g: &mut [f64]| g[0] = 0.5 - t;
+        let (mut gs, mut ge) = ([0.0], [0.0]);
+        f(0.0, &mut gs);
+        f(1.0, &mut ge);
+        let t = rf
+            .locate::<()>(0.0, 1.0, &[1.0], &gs, &ge, 1e-12, &mut |t, g| {
+                f(t, g);
+                Ok(())
+            })
+            .unwrap();
+        assert!(t > 0.5 && t - 0.5 <= 1e-12 && rf.g_hi[0] < 0.0, "t = {t}, g = {}", rf.g_hi[0]);
     }
 
     #[test]
@@ -155,8 +259,9 @@ mod tests {
         f(0.0, &mut g_start);
         f(1.0, &mut g_end);
         let mut evals = 0;
+        let w = [g_start[0].signum(), g_start[1].signum()];
         let t = rf
-            .locate::<()>(0.0, 1.0, &g_start, &g_end, 1e-12, &mut |t, g| {
+            .locate::<()>(0.0, 1.0, &w, &g_start, &g_end, 1e-12, &mut |t, g| {
                 evals += 1;
                 f(t, g);
                 Ok(())
@@ -164,7 +269,7 @@ mod tests {
             .unwrap();
         let exact = 0.5_f64.cbrt();
         assert!(t >= exact && t - exact <= 1e-12, "t = {t}");
-        assert!(changed(g_start[0], rf.g_hi[0]) && !changed(g_start[1], rf.g_hi[1]));
+        assert!(changed(w[0], rf.g_hi[0]) && !changed(w[1], rf.g_hi[1]));
         assert!(evals < 30, "{evals} evaluations");
     }
 
@@ -176,7 +281,7 @@ mod tests {
         f(1.0, &mut gs);
         f(0.0, &mut ge);
         let t = rf
-            .locate::<()>(1.0, 0.0, &gs, &ge, 1e-11, &mut |t, g| {
+            .locate::<()>(1.0, 0.0, &[gs[0].signum()], &gs, &ge, 1e-11, &mut |t, g| {
                 f(t, g);
                 Ok(())
             })

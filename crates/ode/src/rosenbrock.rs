@@ -27,9 +27,15 @@
 //!   `max(h_min, 16ε|t|)` or after 100 consecutive failed attempts, so it never hangs.
 //! * Dense output: the RODAS 3rd-order continuous extension (see `dense.rs`).
 //! * Roots: after each accepted step the root functions are evaluated at its end;
-//!   a sign change (relative to the step start, a zero at the start not counting)
-//!   is located on the dense output by the Illinois bracketing iteration of
-//!   `roots.rs` to within `root_tol`, and the state is returned on the new side.
+//!   a sign change in a function's [`RootDirection`](crate::RootDirection),
+//!   relative to the side it is watched from during the step (`roots::watch`), is
+//!   located on the dense output by the Illinois bracketing iteration of
+//!   `roots.rs` to within `root_tol`, and the state is returned strictly on the new
+//!   side. The side of a function that is exactly zero at the step start: the
+//!   "no event" side of its direction; for an `Either` function, the side it was
+//!   on at the previous step end (a step may end on an exact zero, which is not a
+//!   change), or after a restart its side a little after the start (SUNDIALS'
+//!   rule; the only value ever taken past the start, and only for `Either`).
 //!
 //! All work buffers are allocated in [`Rosenbrock::new`] (or when the dimension or
 //! the number of root functions changes); the step loop does not allocate.
@@ -39,8 +45,8 @@ use nalgebra::DMatrix;
 use crate::dense::StepDense;
 use crate::lu::LuFactors;
 use crate::rodas4::*;
-use crate::roots::{changed, RootFinder};
-use crate::{Advance, Integrator, IntegratorError, OdeSystem, Options, RhsError, Stats};
+use crate::roots::{changed, watch, RootFinder};
+use crate::{Advance, Integrator, IntegratorError, OdeSystem, Options, RhsError, RootDirection, Stats};
 
 const SAFETY: f64 = 0.9;
 const FAC_MIN: f64 = 0.2;
@@ -84,9 +90,14 @@ pub struct Rosenbrock {
     q2: Vec<f64>,
     y_root: Vec<f64>,
     g1: Vec<f64>,
-    g_ref: Vec<f64>,
     g_probe: Vec<f64>,
     g_ret: Vec<f64>,
+    /// Direction of each root function (asked from the system at each restart).
+    directions: Vec<RootDirection>,
+    /// Side each root function is watched from during the current step (see `roots::watch`).
+    watch: Vec<f64>,
+    /// Last non-zero side of each root function since the last restart (0 = not known).
+    last_side: Vec<f64>,
     jac: DMatrix<f64>,
     lu: LuFactors,
     root_finder: RootFinder,
@@ -138,9 +149,11 @@ impl Rosenbrock {
             q2: Vec::new(),
             y_root: Vec::new(),
             g1: Vec::new(),
-            g_ref: Vec::new(),
             g_probe: Vec::new(),
             g_ret: Vec::new(),
+            directions: Vec::new(),
+            watch: Vec::new(),
+            last_side: Vec::new(),
             jac: DMatrix::zeros(0, 0),
             lu: LuFactors::new(0),
             root_finder: RootFinder::new(0),
@@ -218,9 +231,11 @@ impl Rosenbrock {
         if self.g0.len() != m {
             self.g0 = vec![0.0; m];
             self.g1 = vec![0.0; m];
-            self.g_ref = vec![0.0; m];
             self.g_probe = vec![0.0; m];
             self.g_ret = vec![0.0; m];
+            self.directions = vec![RootDirection::Either; m];
+            self.watch = vec![0.0; m];
+            self.last_side = vec![0.0; m];
             self.roots_valid = false;
         }
         self.root_finder.ensure_len(m);
@@ -460,7 +475,8 @@ impl Rosenbrock {
         }
     }
 
-    /// Ensure f0 (and g0) correspond to (t, y).
+    /// Ensure f0 (and g0) correspond to (t, y); after a restart also ask the
+    /// root directions again and forget the sides seen before.
     fn refresh_cache(&mut self, sys: &mut dyn OdeSystem, t: f64, y: &[f64]) -> Result<(), IntegratorError> {
         let same_point = self.cache_valid && t == self.t_cache && y == self.y_cache.as_slice();
         if !same_point {
@@ -478,6 +494,8 @@ impl Rosenbrock {
         }
         if !self.roots_valid {
             eval_roots(sys, t, y, &mut self.g0)?;
+            sys.root_directions(&mut self.directions);
+            self.last_side.fill(0.0);
             self.roots_valid = true;
         }
         Ok(())
@@ -667,33 +685,37 @@ impl Integrator for Rosenbrock {
             if m > 0 {
                 eval_roots(sys, t1, &self.y1, &mut self.g1)?;
                 let dense = StepDense { t0, t1, t_end: t1, y0: y, y1: &self.y1, q1: &self.q1, q2: &self.q2 };
-                // Reference values: those at the step start, except that a function
-                // that is exactly zero there (an event just handled) takes its value a
-                // little after the start, so that its next genuine crossing is seen.
-                self.g_ref.copy_from_slice(&self.g0);
-                if self.g0.contains(&0.0) {
+                // Side each function is watched from. Only an `Either` function that
+                // is zero at the start with no side seen since the restart needs a
+                // value after the start (see `roots::watch`).
+                let probe_needed =
+                    (0..m).any(|i| self.g0[i] == 0.0 && self.directions[i] == RootDirection::Either && self.last_side[i] == 0.0);
+                if probe_needed {
                     let len = (t1 - t0).abs();
                     let delta = len.min((100.0 * f64::EPSILON * (t0.abs() + len)).max(0.5 * self.opts.root_tol));
                     let tp = t0 + dir * delta;
                     dense.interpolate(tp, &mut self.y_root);
                     eval_roots(sys, tp, &self.y_root, &mut self.g_probe)?;
                     for i in 0..m {
-                        if self.g0[i] == 0.0 {
-                            self.g_ref[i] = self.g_probe[i];
+                        if self.g0[i] == 0.0 && self.directions[i] == RootDirection::Either && self.last_side[i] == 0.0 {
+                            self.last_side[i] = if self.g_probe[i] != 0.0 { self.g_probe[i].signum() } else { 0.0 };
                         }
                     }
                 }
-                if (0..m).any(|i| changed(self.g_ref[i], self.g1[i])) {
+                for i in 0..m {
+                    self.watch[i] = watch(self.directions[i], self.g0[i], self.last_side[i]);
+                }
+                if (0..m).any(|i| changed(self.watch[i], self.g1[i])) {
                     let tol = self.opts.root_tol.max(4.0 * f64::EPSILON * t0.abs().max(t1.abs()));
                     let y_root = &mut self.y_root;
-                    let mut tr = self.root_finder.locate(t0, t1, &self.g_ref, &self.g1, tol, &mut |tm: f64, g: &mut [f64]| {
+                    let mut tr = self.root_finder.locate(t0, t1, &self.watch, &self.g0, &self.g1, tol, &mut |tm: f64, g: &mut [f64]| {
                         dense.interpolate(tm, y_root);
                         eval_roots(sys, tm, y_root, g)
                     })?;
                     self.g_ret.copy_from_slice(&self.root_finder.g_hi);
                     // Functions that cross within `tol` after the first one are reported
                     // too; the returned point then moves onto their new side as well.
-                    let pending = (0..m).any(|i| !changed(self.g_ref[i], self.g_ret[i]) && changed(self.g_ref[i], self.g1[i]));
+                    let pending = (0..m).any(|i| !changed(self.watch[i], self.g_ret[i]) && changed(self.watch[i], self.g1[i]));
                     if pending {
                         let tp = if (t1 - tr).abs() <= tol { t1 } else { tr + dir * tol };
                         if tp == t1 {
@@ -702,7 +724,7 @@ impl Integrator for Rosenbrock {
                             dense.interpolate(tp, &mut self.y_root);
                             eval_roots(sys, tp, &self.y_root, &mut self.g_probe)?;
                         }
-                        let keeps_first = (0..m).all(|i| !changed(self.g_ref[i], self.g_ret[i]) || changed(self.g_ref[i], self.g_probe[i]));
+                        let keeps_first = (0..m).all(|i| !changed(self.watch[i], self.g_ret[i]) || changed(self.watch[i], self.g_probe[i]));
                         if keeps_first {
                             tr = tp;
                             std::mem::swap(&mut self.g_ret, &mut self.g_probe);
@@ -716,7 +738,7 @@ impl Integrator for Rosenbrock {
                 let dense = StepDense { t0, t1, t_end: tr, y0: y, y1: &self.y1, q1: &self.q1, q2: &self.q2 };
                 dense.interpolate(tr, &mut self.y_root);
                 observer(&dense);
-                let indices: Vec<usize> = (0..m).filter(|&i| changed(self.g_ref[i], self.g_ret[i])).collect();
+                let indices: Vec<usize> = (0..m).filter(|&i| changed(self.watch[i], self.g_ret[i])).collect();
                 y.copy_from_slice(&self.y_root);
                 *t = tr;
                 // The caller is expected to change the system here; nothing is cached.
@@ -729,6 +751,15 @@ impl Integrator for Rosenbrock {
             {
                 let dense = StepDense { t0, t1, t_end: t1, y0: y, y1: &self.y1, q1: &self.q1, q2: &self.q2 };
                 observer(&dense);
+            }
+            // Sides seen at the step end carry over to the next step (a step may end
+            // on an exact zero, which is not a change).
+            for i in 0..m {
+                if self.g1[i] != 0.0 {
+                    self.last_side[i] = self.g1[i].signum();
+                } else if self.watch[i] != 0.0 {
+                    self.last_side[i] = self.watch[i];
+                }
             }
             y.copy_from_slice(&self.y1);
             *t = t1;

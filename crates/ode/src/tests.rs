@@ -396,6 +396,126 @@ fn simultaneous_roots_are_all_reported() {
     assert!(t >= (20.0 / G).sqrt(), "returned point on the new side of g1");
 }
 
+/// A system with declared root directions (the wrapped one keeps the default).
+struct Directed<S> {
+    inner: S,
+    directions: Vec<RootDirection>,
+}
+
+impl<S: OdeSystem> OdeSystem for Directed<S> {
+    fn dim(&self) -> usize {
+        self.inner.dim()
+    }
+    fn rhs(&mut self, t: f64, y: &[f64], dydt: &mut [f64]) -> Result<(), RhsError> {
+        self.inner.rhs(t, y, dydt)
+    }
+    fn n_roots(&self) -> usize {
+        self.inner.n_roots()
+    }
+    fn roots(&mut self, t: f64, y: &[f64], g: &mut [f64]) -> Result<(), RhsError> {
+        self.inner.roots(t, y, g)
+    }
+    fn root_directions(&self, out: &mut [RootDirection]) {
+        out.copy_from_slice(&self.directions);
+    }
+}
+
+/// y' = 1 from y = 0 at t = 0, one root function g = y − level.
+fn ramp(level: f64, direction: RootDirection) -> Directed<impl OdeSystem> {
+    let inner = Sys {
+        n: 1,
+        f: |_t, _y: &[f64], d: &mut [f64]| {
+            d[0] = 1.0;
+            Ok(())
+        },
+        m: 1,
+        g: Some(move |_t: f64, y: &[f64], g: &mut [f64]| g[0] = y[0] - level),
+    };
+    Directed { inner, directions: vec![direction] }
+}
+
+#[test]
+fn threshold_at_the_restart_point_is_not_missed() {
+    // Cause of the stuck-piston defect: a caller restarts with a root function at
+    // exactly zero that is about to become positive (a held piston whose applied
+    // force equals its breakaway level). Sampling the function a little after the
+    // start gives a positive reference, so the crossing was never seen again. A
+    // Rising function is watched from its negative side: the event is reported
+    // within root_tol of the restart, strictly positive.
+    let mut sys = ramp(0.5, RootDirection::Rising);
+    let mut int = Rosenbrock::new(Options::with_tolerances(1e-8, 1e-10, 1), 1);
+    let (mut t, mut y) = (0.5, vec![0.5]);
+    let r = int.advance(&mut sys, &mut t, &mut y, 2.0, &mut no_obs()).expect("ramp");
+    assert_eq!(r, Advance::Root { indices: vec![0] });
+    assert!(t > 0.5 && t - 0.5 <= 1e-9 && y[0] > 0.5, "t = {t}, y = {}", y[0]);
+    // An Either function in the same place takes its side from just after the
+    // start (SUNDIALS' rule): already positive, so no event. This is the
+    // documented limitation a direction removes.
+    let mut sys = ramp(0.5, RootDirection::Either);
+    int.reset();
+    let (mut t, mut y) = (0.5, vec![0.5]);
+    let r = int.advance(&mut sys, &mut t, &mut y, 2.0, &mut no_obs()).expect("ramp");
+    assert_eq!(r, Advance::Reached);
+}
+
+#[test]
+fn directions_filter_crossings() {
+    // g = y − 1 rises through zero at t = 1: reported for Rising and Either, not Falling.
+    for (direction, fires) in [(RootDirection::Rising, true), (RootDirection::Either, true), (RootDirection::Falling, false)] {
+        let mut sys = ramp(1.0, direction);
+        let mut int = Rosenbrock::new(Options::with_tolerances(1e-8, 1e-10, 1), 1);
+        let (mut t, mut y) = (0.0, vec![0.0]);
+        let r = int.advance(&mut sys, &mut t, &mut y, 2.0, &mut no_obs()).expect("ramp");
+        if fires {
+            assert_eq!(r, Advance::Root { indices: vec![0] }, "{direction:?}");
+            assert!(t > 1.0 && t - 1.0 <= 1e-9 && y[0] > 1.0, "{direction:?}: t = {t}");
+        } else {
+            assert_eq!(r, Advance::Reached, "{direction:?}");
+        }
+    }
+    // A Rising function that starts positive is not watched until it is back on
+    // its negative side: g = 1 − y falls at t = 1 (ignored), never rises.
+    let mut sys = Directed {
+        inner: Sys {
+            n: 1,
+            f: |_t, _y: &[f64], d: &mut [f64]| {
+                d[0] = 1.0;
+                Ok(())
+            },
+            m: 1,
+            g: Some(|_t: f64, y: &[f64], g: &mut [f64]| g[0] = 1.0 - y[0]),
+        },
+        directions: vec![RootDirection::Rising],
+    };
+    let mut int = Rosenbrock::new(Options::with_tolerances(1e-8, 1e-10, 1), 1);
+    let (mut t, mut y) = (0.0, vec![0.0]);
+    assert_eq!(int.advance(&mut sys, &mut t, &mut y, 2.0, &mut no_obs()).expect("falling"), Advance::Reached);
+}
+
+#[test]
+fn step_ending_on_an_exact_zero_does_not_hide_the_crossing() {
+    // g = 0.5 − t with fixed steps of 0.25: the second step ends with g exactly 0,
+    // which is not yet a change (the rule is strict); the next step must still be
+    // watched from the positive side the function came from.
+    let mut sys = Sys {
+        n: 1,
+        f: |_t, _y: &[f64], d: &mut [f64]| {
+            d[0] = -1.0;
+            Ok(())
+        },
+        m: 1,
+        g: Some(|t: f64, _y: &[f64], g: &mut [f64]| g[0] = 0.5 - t),
+    };
+    let mut int = Rosenbrock::new(Options::with_tolerances(1e-8, 1e-10, 1), 1);
+    int.set_fixed_step(Some(0.25));
+    let (mut t, mut y) = (0.0, vec![0.5]);
+    let mut ends = Vec::new();
+    let r = int.advance(&mut sys, &mut t, &mut y, 2.0, &mut |d: &dyn Dense| ends.push(d.t_end())).expect("decay");
+    assert_eq!(ends[1], 0.5, "the set-up must end a step on the exact zero: {ends:?}");
+    assert_eq!(r, Advance::Root { indices: vec![0] });
+    assert!(t > 0.5 && t - 0.5 <= 1e-9, "t = {t}");
+}
+
 #[test]
 fn stop_time_is_respected_exactly_and_backwards_works() {
     let mut sys = plain(1, |_t, y: &[f64], d: &mut [f64]| {

@@ -18,4 +18,7 @@ pub mod simulate;
 pub use model::{Model, ModelError};
 pub use rest::{RestError, RestReport, RestValue};
 pub use settings::options_from;
-pub use simulate::{simulate, Balance, EventLog, FinalState, MassState, SimOptions, SimResult, SolveError, StrokeStatistic};
+pub use simulate::{
+    simulate, simulate_observed, Balance, Checkpoint, CheckpointKind, EventLog, FinalState, MassState, SimOptions, SimResult, SolveError,
+    StrokeStatistic,
+};

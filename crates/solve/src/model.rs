@@ -6,8 +6,11 @@
 //! chamber's mean polytropic index) in block order, then four quadrature
 //! states used only for the balance report:
 //! [∫ṁ_boundary, ∫Ė_boundary, ∫Q_wall, ∫p·V̇] (boundary = flows entering
-//! through sources). No derivative reads a quadrature. Root functions: the blocks' event functions in block
-//! order, then [`mechanics::N_ROOTS`] per mechanical node.
+//! through sources). No derivative reads a quadrature. Root functions: the
+//! blocks' event functions in block order, then [`mechanics::N_ROOTS`] per
+//! mechanical node; every one of them is negative while nothing happens and
+//! the event is its becoming positive (a rising crossing,
+//! [`ode::RootDirection::Rising`]).
 //!
 //! One evaluation runs the phases of [`blocks::block`] in order:
 //! kinematics → efforts → signals → junction pressures → flows → forces and
@@ -72,6 +75,8 @@ pub struct Model {
     pub node_mech: Vec<MechState>,
     pub node_forces: Vec<NodeForces>,
     pub modes: Vec<Mode>,
+    /// Karnopp's velocity band of every node [m/s] (see [`mechanics::Body`]); 0 until a run sets it.
+    pub velocity_band: f64,
     pub(crate) signals: Vec<f64>,
     /// For each junction node: (block, pneumatic-port index) pairs attached to it.
     pub(crate) junction_ports: Vec<Vec<(usize, usize)>>,
@@ -199,6 +204,7 @@ impl Model {
             node_mech: vec![MechState::default(); n_mech],
             node_forces: vec![NodeForces::default(); n_mech],
             modes: vec![Mode::Held { may_extend: true, may_retract: true }; n_mech],
+            velocity_band: 0.0,
             signals: vec![0.0; nsig],
             junction_ports,
             junction_guess: vec![f64::NAN; n_nodes],
@@ -227,6 +233,49 @@ impl Model {
     /// Number of root functions.
     pub fn n_roots(&self) -> usize {
         self.n_block_events + mechanics::N_ROOTS * self.circuit.mechanical_nodes.len()
+    }
+
+    /// Index of the first root function of mechanical node `node`.
+    pub fn node_root_base(&self, node: usize) -> usize {
+        self.n_block_events + node * mechanics::N_ROOTS
+    }
+
+    /// Which block (and which of its event functions) or which mechanical node
+    /// (and which of its roots) root function `i` belongs to, as
+    /// "controller event 0" or "piston breakaway (retract)".
+    pub fn root_name(&self, i: usize) -> String {
+        if i < self.n_block_events {
+            if let Some((bi, slot)) = self.slots.iter().enumerate().find(|(_, s)| s.events.contains(&i)) {
+                return format!("{} event {}", self.circuit.instances[bi].id, i - slot.events.start);
+            }
+        }
+        let k = i.saturating_sub(self.n_block_events);
+        let (node, which) = (k / mechanics::N_ROOTS, k % mechanics::N_ROOTS);
+        let Some(mn) = self.circuit.mechanical_nodes.get(node) else {
+            return format!("root {i}");
+        };
+        let id = &self.circuit.instances[mn.inertia.block].id;
+        let what = match (self.modes.get(node), which) {
+            (Some(Mode::Sliding { .. }), 0) => "velocity reversal",
+            (Some(Mode::Sliding { .. }), _) => "end stop",
+            (_, 0) => "breakaway (extend)",
+            (_, _) => "breakaway (retract)",
+        };
+        format!("{id} {what}")
+    }
+
+    /// [`Model::eval`] that leaves no trace in the model: the junction warm
+    /// starts and the evaluation counter are restored afterwards, so an
+    /// observer that calls it does not change the run it observes.
+    pub fn eval_detached(&mut self, t: f64, y: &[f64], g: Option<&mut [f64]>) -> Result<(), ModelError> {
+        let guess = self.junction_guess.clone();
+        let step = self.junction_step.clone();
+        let evaluations = self.evaluations;
+        let r = self.eval(t, y, None, g);
+        self.junction_guess = guess;
+        self.junction_step = step;
+        self.evaluations = evaluations;
+        r
     }
 
     /// Initial state vector: inertias first (their positions fix chamber volumes).
@@ -280,6 +329,7 @@ impl Model {
             node_mech,
             node_forces,
             modes,
+            velocity_band,
             signals,
             junction_ports,
             junction_guess,
@@ -391,13 +441,14 @@ impl Model {
                 if let Some(dry) = f.friction {
                     node_forces[node].sliding += dry.sliding;
                     node_forces[node].breakaway += dry.breakaway;
+                    node_forces[node].viscous += dry.viscous;
                 }
             }
         }
         for (node, mn) in circuit.mechanical_nodes.iter().enumerate() {
             let r = mn.inertia;
             let mass = circuit.instances[r.block].block.inertia();
-            let accel = mechanics::acceleration(modes[node], &node_forces[node], mass);
+            let accel = mechanics::acceleration(modes[node], &node_forces[node], node_mech[node].v, mass);
             if !accel.is_finite() {
                 return Err(ModelError::NonFinite { t, what: format!("acceleration of {}", circuit.instances[r.block].id) });
             }
@@ -448,10 +499,11 @@ impl Model {
             }
             let base = slots.last().map(|s| s.events.end).unwrap_or(0);
             for (node, mn) in circuit.mechanical_nodes.iter().enumerate() {
-                let stops = circuit.instances[mn.inertia.block].block.stops();
+                let block = &circuit.instances[mn.inertia.block].block;
+                let body = mechanics::Body { mass: block.inertia(), stops: block.stops(), velocity_band: *velocity_band };
                 let m = node_mech[node];
                 let out = &mut g[base + node * mechanics::N_ROOTS..base + (node + 1) * mechanics::N_ROOTS];
-                mechanics::roots(modes[node], m.x, m.v, &node_forces[node], stops, out);
+                mechanics::roots(modes[node], m.x, m.v, &node_forces[node], &body, out);
             }
         }
         Ok(())

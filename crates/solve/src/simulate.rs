@@ -1,11 +1,20 @@
 //! The hybrid simulation loop: integrate until a root or a time event, hand
 //! the event to the blocks and node logic, restart; sample results along the
 //! way from the integrator's dense output.
+//!
+//! Events cannot be missed (see `resolve_events`): every root function is
+//! declared rising (negative while nothing happens), so the integrator
+//! watches a function left exactly at zero from its "no event" side and
+//! reports it as soon as it becomes positive; the roots that fired decide the
+//! new modes; afterwards every root is checked again at the event instant and
+//! any that is still positive is handled again there (bounded; an event
+//! condition that no handling clears is an error naming the root). Time
+//! events due at the instant of a root are handled with it.
 
 use crate::mechanics::{self, Mode};
 use crate::model::{Model, ModelError, N_QUADRATURE};
 use blocks::block::{CycleRecord, EventKind, MechState};
-use ode::{Advance, Dense, Integrator, IntegratorError, OdeSystem, Options, RhsError, Rosenbrock};
+use ode::{Advance, Dense, Integrator, IntegratorError, OdeSystem, Options, RhsError, RootDirection, Rosenbrock};
 
 /// Settings of one run, in SI.
 #[derive(Debug, Clone, PartialEq)]
@@ -95,7 +104,7 @@ impl FinalState {
                     "{} {} at x = {:.1} mm, net force {:.1} N against a breakaway level of {:.1} N",
                     m.id,
                     m.mode,
-                    m.x * 1e3,
+                    (m.x * 1e4).round() / 10.0 + 0.0, // rounded, and + 0.0 turns -0.0 into 0.0
                     m.applied,
                     m.breakaway
                 )
@@ -211,6 +220,8 @@ pub enum SolveError {
     Integrator(#[from] IntegratorError),
     #[error("more than {limit} events by t = {t} s (chattering between modes?)")]
     TooManyEvents { t: f64, limit: usize },
+    #[error("at t = {t} s the event conditions of {roots} still hold after handling them {rounds} times")]
+    Unsettled { t: f64, roots: String, rounds: usize },
     #[error("invalid settings: {0}")]
     Settings(String),
     #[error("{0}")]
@@ -234,10 +245,11 @@ impl OdeSystem for System<'_> {
                 Ok(())
             }
             // A trial stage of a large step may leave the physical domain
-            // (negative mass): answer NaN so the integrator rejects the step
-            // and retries with a smaller one; keep the reason for the message
-            // in case it gives up.
-            Err(e @ ModelError::NonPhysical { .. }) => {
+            // (negative mass; a piston far past its stop, so that a chamber's
+            // volume clamps to zero and its derivatives overflow): answer NaN
+            // so the integrator rejects the step and retries with a smaller
+            // one; keep the reason for the message in case it gives up.
+            Err(e @ (ModelError::NonPhysical { .. } | ModelError::NonFinite { .. })) => {
                 self.error = Some(e);
                 dydt.fill(f64::NAN);
                 Ok(())
@@ -265,10 +277,46 @@ impl OdeSystem for System<'_> {
             RhsError(msg)
         })
     }
+    fn root_directions(&self, out: &mut [RootDirection]) {
+        // the convention of every root of the model (see `model.rs`)
+        out.fill(RootDirection::Rising);
+    }
+}
+
+/// Where an observed run is when it calls its observer.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum CheckpointKind {
+    /// The end of an accepted integrator step, before any event found in it is
+    /// handled (a step cut short at a root is not shown: its end is the event).
+    Step,
+    /// An event instant, after every event there has been handled.
+    Event,
+}
+
+/// What an observer of [`simulate_observed`] sees: the model evaluated at
+/// (t, y) in its current modes, and the values of all root functions there.
+#[derive(Debug)]
+pub struct Checkpoint<'a> {
+    pub t: f64,
+    pub kind: CheckpointKind,
+    pub y: &'a [f64],
+    pub roots: &'a [f64],
+    pub model: &'a Model,
 }
 
 /// Run the model from its initial state.
 pub fn simulate(model: &mut Model, opts: &SimOptions) -> Result<SimResult, SolveError> {
+    run(model, opts, None)
+}
+
+/// [`simulate`], calling `observer` at every accepted integrator step and every
+/// event instant (for tests of the event logic). Observing does not change the
+/// run: the extra evaluations leave no trace in the model.
+pub fn simulate_observed(model: &mut Model, opts: &SimOptions, observer: &mut dyn FnMut(&Checkpoint)) -> Result<SimResult, SolveError> {
+    run(model, opts, Some(observer))
+}
+
+fn run(model: &mut Model, opts: &SimOptions, mut observer: Option<&mut dyn FnMut(&Checkpoint)>) -> Result<SimResult, SolveError> {
     if !(opts.t_end > 0.0 && opts.t_end.is_finite()) {
         return Err(SolveError::Settings(format!("end time must be > 0 s, got {}", opts.t_end)));
     }
@@ -306,6 +354,9 @@ pub fn simulate(model: &mut Model, opts: &SimOptions) -> Result<SimResult, Solve
     // the blocks' quadratures at t = 0 and after every event, to difference over strokes
     let quad = model.n_states..model.n_states + model.n_block_quadratures;
     let mut snapshots: Vec<(f64, Vec<f64>)> = Vec::new();
+    let mut roots = vec![0.0; model.n_roots()];
+    // velocities have the absolute tolerance opts.atol (their typical size is 1 m/s)
+    model.velocity_band = opts.atol;
 
     // initial modes: at rest where v = 0, then break away if the forces say so
     model.eval(t, &y, None, None)?;
@@ -314,23 +365,34 @@ pub fn simulate(model: &mut Model, opts: &SimOptions) -> Result<SimResult, Solve
         let stops = model.circuit.instances[model.circuit.mechanical_nodes[node].inertia.block].block.stops();
         model.modes[node] = if m.v == 0.0 { mechanics::held_at(m.x, stops) } else { Mode::Sliding { dir: m.v.signum() } };
     }
-    settle(model, t, &mut y, &mut result.events)?;
+    resolve_events(model, t, &mut y, &[], &[], &mut result)?;
     model.eval(t, &y, None, None)?;
     let initial = model.stored(t, &y);
     record(model, t, &y, &mut result)?;
     snapshots.push((t, y[quad.clone()].to_vec()));
+    if let Some(obs) = observer.as_mut() {
+        checkpoint(model, t, &y, CheckpointKind::Event, &mut roots, &mut **obs)?;
+    }
 
     let mut next_sample = opts.sample_interval;
     let mut n_events = 0usize;
     let mut finished = false;
+    let mut step_ends: Vec<(f64, Vec<f64>)> = Vec::new();
     while !finished {
         let t_time_event = model.circuit.instances.iter().filter_map(|i| i.block.next_time_event(t)).fold(f64::INFINITY, f64::min);
         let t_stop = opts.t_end.min(t_time_event);
         let mut samples: Vec<(f64, Vec<f64>)> = Vec::new();
+        let observing = observer.is_some();
+        step_ends.clear();
         let advance = {
             let mut sys = System { model, error: None };
             let interval = opts.sample_interval;
-            let mut observer = |d: &dyn Dense| {
+            let mut dense_observer = |d: &dyn Dense| {
+                if observing {
+                    let mut ys = vec![0.0; n];
+                    d.eval(d.t_end(), &mut ys);
+                    step_ends.push((d.t_end(), ys));
+                }
                 if interval <= 0.0 {
                     return;
                 }
@@ -343,57 +405,54 @@ pub fn simulate(model: &mut Model, opts: &SimOptions) -> Result<SimResult, Solve
                     next_sample = (next_sample / interval).round() * interval;
                 }
             };
-            let r = integrator.advance(&mut sys, &mut t, &mut y, t_stop, &mut observer);
+            let r = integrator.advance(&mut sys, &mut t, &mut y, t_stop, &mut dense_observer);
             match (r, sys.error.take()) {
                 (Ok(a), _) => a,
                 (Err(_), Some(model_error)) => return Err(model_error.into()),
                 (Err(e), None) => return Err(e.into()),
             }
         };
+        if let Some(obs) = observer.as_mut() {
+            // the step cut short at a root ends at the event itself, shown after handling
+            let shown = if matches!(advance, Advance::Root { .. }) { step_ends.len().saturating_sub(1) } else { step_ends.len() };
+            for (ts, ys) in &step_ends[..shown] {
+                checkpoint(model, *ts, ys, CheckpointKind::Step, &mut roots, &mut **obs)?;
+            }
+        }
         for (ts, ys) in samples {
             if ts < t - 1e-15 || ts <= t {
                 record(model, ts, &ys, &mut result)?;
             }
         }
-        let mut handled = false;
-        match advance {
-            Advance::Reached => {
-                if t >= opts.t_end {
-                    finished = true;
-                } else {
-                    model.eval(t, &y, None, None)?;
-                    for bi in 0..model.circuit.instances.len() {
-                        let due = model.circuit.instances[bi].block.next_time_event(t - 1e-12 * t.max(1.0));
-                        if matches!(due, Some(d) if (d - t).abs() <= 1e-12 * t.max(1.0)) {
-                            handle_block_event(model, bi, EventKind::Time, t, &y, &mut result)?;
-                            handled = true;
-                        }
-                    }
+        let crossings = match advance {
+            Advance::Reached if t >= opts.t_end => {
+                finished = true;
+                None
+            }
+            Advance::Reached => Some(Vec::new()),
+            Advance::Root { indices } => Some(indices),
+        };
+        if let Some(crossings) = crossings {
+            // time events due now, also when a root landed on the same instant
+            let due: Vec<usize> = (0..model.circuit.instances.len())
+                .filter(|&bi| {
+                    let next = model.circuit.instances[bi].block.next_time_event(t - 1e-12 * t.max(1.0));
+                    matches!(next, Some(d) if (d - t).abs() <= 1e-12 * t.max(1.0))
+                })
+                .collect();
+            if !crossings.is_empty() || !due.is_empty() {
+                n_events += 1;
+                if n_events > opts.max_events {
+                    return Err(SolveError::TooManyEvents { t, limit: opts.max_events });
+                }
+                resolve_events(model, t, &mut y, &crossings, &due, &mut result)?;
+                integrator.reset();
+                record(model, t, &y, &mut result)?;
+                snapshots.push((t, y[quad.clone()].to_vec()));
+                if let Some(obs) = observer.as_mut() {
+                    checkpoint(model, t, &y, CheckpointKind::Event, &mut roots, &mut **obs)?;
                 }
             }
-            Advance::Root { indices } => {
-                model.eval(t, &y, None, None)?;
-                let event_ranges: Vec<_> = model.slots.iter().map(|s| s.events.clone()).collect();
-                for (bi, range) in event_ranges.into_iter().enumerate() {
-                    for (k, idx) in range.enumerate() {
-                        if indices.contains(&idx) {
-                            handle_block_event(model, bi, EventKind::Crossing(k), t, &y, &mut result)?;
-                        }
-                    }
-                }
-                // node roots (stops, reversals, breakaway) are settled below
-                handled = true;
-            }
-        }
-        if handled {
-            n_events += 1;
-            if n_events > opts.max_events {
-                return Err(SolveError::TooManyEvents { t, limit: opts.max_events });
-            }
-            settle(model, t, &mut y, &mut result.events)?;
-            integrator.reset();
-            record(model, t, &y, &mut result)?;
-            snapshots.push((t, y[quad.clone()].to_vec()));
         }
         if let Some(n) = opts.cycles {
             if result.cycles.len() as u64 >= n {
@@ -458,6 +517,74 @@ fn stroke_statistics(model: &Model, cycles: &[CycleRecord], snapshots: &[(f64, V
     out
 }
 
+/// Evaluate the model and its roots at (t, y) without disturbing the run and show them to the observer.
+fn checkpoint(
+    model: &mut Model,
+    t: f64,
+    y: &[f64],
+    kind: CheckpointKind,
+    roots: &mut [f64],
+    observer: &mut dyn FnMut(&Checkpoint),
+) -> Result<(), SolveError> {
+    model.eval_detached(t, y, Some(roots))?;
+    observer(&Checkpoint { t, kind, y, roots, model });
+    Ok(())
+}
+
+/// Rounds of event handling at one instant before an event condition that
+/// does not clear is reported as [`SolveError::Unsettled`].
+const MAX_ROUNDS: usize = 8;
+
+/// Handle everything that happens at the instant t: the block events whose
+/// roots fired (`crossings`, model root indices), the time events of the
+/// blocks in `due`, and the transitions of the mechanical nodes (the fired
+/// node roots decide them, see [`mechanics::transition`]). Then evaluate every
+/// root again in the new state: one that is still positive (its event
+/// condition holds although nothing reported it) is handled as fired, so a
+/// held or closed mode never outlives its exit condition; the integrator
+/// then restarts with every root ≤ 0, i.e. watched from its "no event" side.
+fn resolve_events(
+    model: &mut Model,
+    t: f64,
+    y: &mut [f64],
+    crossings: &[usize],
+    due: &[usize],
+    result: &mut SimResult,
+) -> Result<(), SolveError> {
+    let mut fired: Vec<usize> = crossings.to_vec();
+    let mut g = vec![0.0; model.n_roots()];
+    for round in 0..MAX_ROUNDS {
+        model.eval(t, y, None, None)?;
+        let event_ranges: Vec<_> = model.slots.iter().map(|s| s.events.clone()).collect();
+        for (bi, range) in event_ranges.into_iter().enumerate() {
+            for (k, idx) in range.enumerate() {
+                if fired.contains(&idx) {
+                    handle_block_event(model, bi, EventKind::Crossing(k), t, y, result)?;
+                }
+            }
+        }
+        if round == 0 {
+            for &bi in due {
+                handle_block_event(model, bi, EventKind::Time, t, y, result)?;
+            }
+        }
+        let node_fired: Vec<[bool; mechanics::N_ROOTS]> = (0..model.circuit.mechanical_nodes.len())
+            .map(|node| {
+                let base = model.node_root_base(node);
+                std::array::from_fn(|k| fired.contains(&(base + k)))
+            })
+            .collect();
+        settle(model, t, y, &node_fired, &mut result.events)?;
+        model.eval(t, y, None, Some(&mut g))?;
+        fired = (0..g.len()).filter(|&i| g[i] > 0.0).collect();
+        if fired.is_empty() {
+            return Ok(());
+        }
+    }
+    let roots = fired.iter().map(|&i| model.root_name(i)).collect::<Vec<_>>().join(", ");
+    Err(SolveError::Unsettled { t, roots, rounds: MAX_ROUNDS })
+}
+
 fn handle_block_event(model: &mut Model, bi: usize, kind: EventKind, t: f64, y: &[f64], result: &mut SimResult) -> Result<(), SolveError> {
     // the context must outlive the mutable borrow of the block: copy the buffers
     let slot = model.slots[bi].clone();
@@ -481,32 +608,46 @@ fn handle_block_event(model: &mut Model, bi: usize, kind: EventKind, t: f64, y: 
     Ok(())
 }
 
-/// Apply node transitions until no node changes mode (bounded).
-fn settle(model: &mut Model, t: f64, y: &mut [f64], log: &mut Vec<EventLog>) -> Result<(), SolveError> {
-    for _ in 0..8 {
+/// Apply node transitions until no node changes mode. `fired[node]` are the
+/// node's roots that fired at this instant (used in the first pass only).
+/// Transitions are final (see [`mechanics::transition`]), so two passes
+/// settle every node; one that still changes after [`MAX_ROUNDS`] is an error.
+fn settle(
+    model: &mut Model,
+    t: f64,
+    y: &mut [f64],
+    fired: &[[bool; mechanics::N_ROOTS]],
+    log: &mut Vec<EventLog>,
+) -> Result<(), SolveError> {
+    for pass in 0..MAX_ROUNDS {
         model.eval(t, y, None, None)?;
-        let mut changed = false;
+        let mut changed = Vec::new();
         for node in 0..model.circuit.mechanical_nodes.len() {
             let r = model.circuit.mechanical_nodes[node].inertia;
-            let stops = model.circuit.instances[r.block].block.stops();
+            let block = &model.circuit.instances[r.block].block;
+            let body = mechanics::Body { mass: block.inertia(), stops: block.stops(), velocity_band: model.velocity_band };
             let m = model.node_mech[node];
             let f = model.node_forces[node];
-            if let Some(tr) = mechanics::transition(model.modes[node], m.x, m.v, &f, stops) {
+            let fired_now = if pass == 0 { fired.get(node).copied().unwrap_or_default() } else { [false; mechanics::N_ROOTS] };
+            if let Some(tr) = mechanics::transition(model.modes[node], m.x, m.v, &f, &body, fired_now) {
                 if let Some((x, v)) = tr.reset {
                     let states = model.slots[r.block].states.clone();
                     model.circuit.instances[r.block].block.reset_motion(&mut y[states], MechState { x, v });
                 }
                 let id = &model.circuit.instances[r.block].id;
                 let what = mode_name(tr.mode);
-                if tr.mode != model.modes[node] || tr.reset.is_some() {
+                if tr.mode != model.modes[node] || tr.reset.is_some_and(|(x, v)| x != m.x || v != m.v) {
                     log.push(EventLog { t, what: format!("{id}: {what}") });
-                    changed = true;
+                    changed.push(id.clone());
                 }
                 model.modes[node] = tr.mode;
             }
         }
-        if !changed {
+        if changed.is_empty() {
             return Ok(());
+        }
+        if pass + 1 == MAX_ROUNDS {
+            return Err(SolveError::Unsettled { t, roots: format!("the modes of {}", changed.join(", ")), rounds: MAX_ROUNDS });
         }
     }
     Ok(())
