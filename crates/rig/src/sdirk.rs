@@ -161,7 +161,6 @@ pub(crate) struct Sdirk {
     h: f64,
     jac: Vec<f64>,
     have_jac: bool,
-    jac_fresh: bool,
     need_jac: bool,
     mat: Vec<f64>,
     lu: Lu,
@@ -194,7 +193,6 @@ impl Sdirk {
             h: 0.0,
             jac: vec![0.0; nt * nt],
             have_jac: false,
-            jac_fresh: false,
             need_jac: true,
             mat: vec![0.0; nt * nt],
             lu: Lu::new(nt),
@@ -243,7 +241,6 @@ impl Sdirk {
         let h0 = 0.1 * self.rtol.powf(0.25) / rate.max(1e-9);
         self.h = h0.min(self.h_max).max(1e-10);
         self.have_jac = false;
-        self.jac_fresh = false;
         self.need_jac = true;
         self.rejected_last = false;
         self.w.eta = 1.0;
@@ -276,27 +273,33 @@ impl Sdirk {
     }
 
     fn compute_jacobian<S: OdeSystem>(&mut self, sys: &mut S) -> Result<(), StepError> {
+        let y = self.y.clone();
+        self.jacobian_at(sys, self.t, &y)
+    }
+
+    /// Forward-difference Jacobian at (t, y): columns of the dynamic states
+    /// only (the quadrature columns are zero), all rows.
+    fn jacobian_at<S: OdeSystem>(&mut self, sys: &mut S, t: f64, y: &[f64]) -> Result<(), StepError> {
         let (n, nt) = (self.n, self.nt);
-        let t = self.t;
-        let mut yp = self.y.clone();
-        let mut fp = vec![0.0; self.nt];
-        // a fresh f(y): the stored derivative is a stage value, accurate
-        // only to the Newton tolerance, far too coarse for differencing
-        let mut f0 = vec![0.0; self.nt];
+        let mut yp = y.to_vec();
+        let mut fp = vec![0.0; nt];
+        // a fresh f(y): a stored derivative is a stage value, accurate only
+        // to the Newton tolerance, far too coarse for differencing
+        let mut f0 = vec![0.0; nt];
         self.stats.rhs_evals += 1;
-        if !sys.rhs(t, &self.y, &mut f0) {
+        if !sys.rhs(t, y, &mut f0) {
             return Err(StepError::NonPhysical { t });
         }
         for j in 0..n {
-            let delta = f64::EPSILON.sqrt() * (self.y[j].abs() + self.floor[j]);
-            yp[j] = self.y[j] + delta;
+            let delta = f64::EPSILON.sqrt() * (y[j].abs() + self.floor[j]);
+            yp[j] = y[j] + delta;
             self.stats.rhs_evals += 1;
             let ok = sys.rhs(t, &yp, &mut fp);
             let (dl, ok) = if ok {
                 (delta, true)
             } else {
                 // one-sided the other way (e.g. at a domain edge)
-                yp[j] = self.y[j] - delta;
+                yp[j] = y[j] - delta;
                 self.stats.rhs_evals += 1;
                 (-delta, sys.rhs(t, &yp, &mut fp))
             };
@@ -306,11 +309,10 @@ impl Sdirk {
             for i in 0..nt {
                 self.jac[i * nt + j] = (fp[i] - f0[i]) / dl;
             }
-            yp[j] = self.y[j];
+            yp[j] = y[j];
         }
         self.stats.jacobians += 1;
         self.have_jac = true;
-        self.jac_fresh = true;
         self.need_jac = false;
         Ok(())
     }
@@ -345,14 +347,15 @@ impl Sdirk {
                 let kp = if i == 0 { self.w.f0[q] } else { self.w.k[(i - 1) * nt + q] };
                 self.w.z[q] = self.w.s[q] + hg * kp;
             }
-            let y0 = &self.w.y0;
             let mut eta = self.w.eta.max(f64::EPSILON).powf(0.8);
             let mut d_old = 0.0;
             let mut converged = false;
             let mut lambda: f64 = 1.0;
-            for iter in 0..NEWTON_MAX_ITER {
+            let mut refreshed = false;
+            let mut iter = 0;
+            while iter < NEWTON_MAX_ITER {
                 for q in 0..nt {
-                    self.w.yy[q] = y0[q] + self.w.z[q];
+                    self.w.yy[q] = self.w.y0[q] + self.w.z[q];
                 }
                 self.stats.rhs_evals += 1;
                 if !sys.rhs(t0 + C[i] * h, &self.w.yy, &mut self.w.f) {
@@ -365,27 +368,39 @@ impl Sdirk {
                 // a correction pointing back against the previous one means
                 // the iterates jump across a kink of f (the ISO 6358 ellipse
                 // at r → 1 has an unbounded slope): damp
-                if iter > 0 && self.weighted_dot(&self.w.g, &self.w.dz_prev, y0) < 0.0 {
+                if iter > 0 && self.weighted_dot(&self.w.g, &self.w.dz_prev, &self.w.y0) < 0.0 {
                     lambda = (0.5 * lambda).max(1.0 / 256.0);
                 }
                 for q in 0..nt {
                     self.w.dz_prev[q] = self.w.g[q];
                     self.w.z[q] += lambda * self.w.g[q];
                 }
-                let d = lambda * self.weights_norm(&self.w.g, y0, None);
+                let d = lambda * self.weights_norm(&self.w.g, &self.w.y0, None);
                 if !d.is_finite() {
                     return Attempt::NewtonFailed;
                 }
                 if iter > 0 {
                     let theta = d / d_old;
                     self.w.theta_max = self.w.theta_max.max(theta);
-                    if theta >= 0.99 && lambda == 1.0 {
-                        return Attempt::NewtonFailed;
-                    }
                     eta = theta / (1.0 - theta).max(1e-3);
-                    // predicted not to converge in the remaining iterations
-                    if lambda == 1.0 && eta * d * theta.powi((NEWTON_MAX_ITER - 1 - iter) as i32) > self.newton_tol && theta > 0.5 {
-                        return Attempt::NewtonFailed;
+                    // slow, monotone convergence (no kink crossed): the
+                    // Jacobian is far off; once per stage, evaluate it at the
+                    // current iterate and go on
+                    let slow = lambda == 1.0
+                        && (theta >= 0.99 || (theta > 0.5 && eta * d * theta.powi((NEWTON_MAX_ITER - 1 - iter) as i32) > self.newton_tol));
+                    if slow {
+                        if refreshed {
+                            return Attempt::NewtonFailed;
+                        }
+                        refreshed = true;
+                        let yj: Vec<f64> = (0..nt).map(|q| self.w.y0[q] + self.w.z[q]).collect();
+                        if self.jacobian_at(sys, t0 + C[i] * h, &yj).is_err() || !self.factor(h) {
+                            return Attempt::NewtonFailed;
+                        }
+                        d_old = 0.0;
+                        eta = 1.0;
+                        iter = 0;
+                        continue;
                     }
                 }
                 // on the first iteration the rate is only extrapolated from
@@ -396,6 +411,7 @@ impl Sdirk {
                     break;
                 }
                 d_old = d;
+                iter += 1;
             }
             if !converged {
                 return Attempt::NewtonFailed;
@@ -409,10 +425,9 @@ impl Sdirk {
                 self.w.k[i * nt + q] = (self.w.z[q] - self.w.s[q]) / hg;
             }
         }
-        let y0 = &self.w.y0;
         // stiffly accurate: the last stage is the solution
         for q in 0..nt {
-            self.w.ynew[q] = y0[q] + self.w.z[q];
+            self.w.ynew[q] = self.w.y0[q] + self.w.z[q];
         }
         for q in 0..nt {
             let mut acc = 0.0;
@@ -422,7 +437,7 @@ impl Sdirk {
             self.w.e[q] = h * acc;
         }
         self.lu.solve(&mut self.w.e, &mut self.w.lin);
-        let err = self.weights_norm(&self.w.e, y0, Some(&self.w.ynew));
+        let err = self.weights_norm(&self.w.e, &self.w.y0, Some(&self.w.ynew));
         if err.is_finite() {
             Attempt::Done(err)
         } else {
@@ -434,6 +449,8 @@ impl Sdirk {
     /// `t_limit` if it is within reach.
     pub(crate) fn advance<S: OdeSystem>(&mut self, sys: &mut S, t_limit: f64) -> Result<(), StepError> {
         let h_min = 1e-14 * self.t.abs().max(1.0);
+        // whether the Jacobian was evaluated at the current point in this call
+        let mut fresh_here = false;
         loop {
             let remaining = t_limit - self.t;
             let mut h = self.h.min(self.h_max);
@@ -449,6 +466,7 @@ impl Sdirk {
             }
             if self.need_jac || !self.have_jac {
                 self.compute_jacobian(sys)?;
+                fresh_here = true;
             }
             if !self.factor(h) {
                 self.h = h * 0.5;
@@ -471,7 +489,6 @@ impl Sdirk {
                     fac = fac.clamp(0.2, if self.rejected_last { 1.0 } else { 4.0 });
                     self.h = h * fac;
                     self.rejected_last = false;
-                    self.jac_fresh = false;
                     if self.w.theta_max > THETA_REFRESH {
                         self.need_jac = true;
                     }
@@ -488,7 +505,7 @@ impl Sdirk {
                 }
                 Attempt::NewtonFailed => {
                     self.stats.newton_failures += 1;
-                    if self.jac_fresh {
+                    if fresh_here {
                         self.h = h / 3.0;
                         self.rejected_last = true;
                     } else {
@@ -553,15 +570,8 @@ impl Sdirk {
 
     /// Recomputes the Jacobian at the start of the last step.
     fn jacobian_at_prev<S: OdeSystem>(&mut self, sys: &mut S) -> Result<(), StepError> {
-        let (t, y, fy) = (self.t, self.y.clone(), self.fy.clone());
-        self.t = self.t_prev;
-        self.y.copy_from_slice(&self.y_prev);
-        let r = self.compute_jacobian(sys);
-        self.t = t;
-        self.y.copy_from_slice(&y);
-        self.fy.copy_from_slice(&fy);
-        self.jac_fresh = false;
-        r
+        let y = self.y_prev.clone();
+        self.jacobian_at(sys, self.t_prev, &y)
     }
 
     /// Cuts the last step short at (t, y) (an event found inside it): the
