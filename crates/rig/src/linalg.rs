@@ -3,6 +3,9 @@
 //! forward/back substitution that goes with it. n is 6–8 here, so nothing
 //! clever (Golub & Van Loan, Algorithm 3.4.1, written out by hand).
 
+// Index loops read like the textbook algorithms they implement.
+#![allow(clippy::needless_range_loop)]
+
 /// An LU factorisation `P·M = L·U` of a square matrix, computed in place.
 #[derive(Debug, Clone)]
 pub(crate) struct Lu {

@@ -500,7 +500,11 @@ mod energy_tests {
                 let fx = Effects {
                     real_gas: real,
                     seal_leak: Some(LeakLaw::Iso(Restriction::lpm_per_bar(2.0, 0.3))),
-                    supply_line: line.then_some(SupplyLine { restriction: Restriction::lpm_per_bar(100.0, 0.3), volume: 1e-3, tau_thermal: 2.0 }),
+                    supply_line: line.then_some(SupplyLine {
+                        restriction: Restriction::lpm_per_bar(100.0, 0.3),
+                        volume: 1e-3,
+                        tau_thermal: 2.0,
+                    }),
                     ..Effects::default()
                 };
                 let plant = Plant::new(&rig, &ModelForm::default(), &fx);
@@ -537,8 +541,8 @@ mod energy_tests {
                             let u_r = (g.internal_energy(rho + eps_r, t) - g.internal_energy(rho - eps_r, t)) / (2.0 * eps_r);
                             dm * g.internal_energy(rho, t) + m * (u_t * dt + u_r * drho)
                         };
-                        let mut dudt = du(y[I_M1], t1, v1, dy[I_M1], dy[I_T1], plant.a1 * v)
-                            + du(y[I_M2], t2, v2, dy[I_M2], dy[I_T2], -plant.a2 * v);
+                        let mut dudt =
+                            du(y[I_M1], t1, v1, dy[I_M1], dy[I_T1], plant.a1 * v) + du(y[I_M2], t2, v2, dy[I_M2], dy[I_T2], -plant.a2 * v);
                         let q0 = plant.n_dyn;
                         if line {
                             dudt += du(y[I_ML], y[I_TL], 1e-3, dy[I_ML], dy[I_TL], 0.0);

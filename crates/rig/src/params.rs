@@ -13,6 +13,11 @@ use crate::flow::{CheckLaw, LeakLaw, Restriction, SubsonicLaw, LPM_PER_BAR};
 use crate::friction::{Eq37, FrictionVariant};
 use crate::gas::Gas;
 
+/// `v > 0` (false for NaN); may be +∞.
+fn positive(v: f64) -> bool {
+    v > 0.0
+}
+
 /// The physical rig of paper Fig. 1 (meter-out speed control).
 #[derive(Debug, Clone, PartialEq)]
 pub struct Rig {
@@ -152,7 +157,7 @@ impl Rig {
         if !(self.rod >= 0.0 && self.rod < self.bore) {
             return Err(RigError::invalid("rig.rod", self.rod, "must lie in [0, bore)"));
         }
-        if !(self.tau_thermal > 0.0) {
+        if !positive(self.tau_thermal) {
             return Err(RigError::invalid("rig.tau_thermal", self.tau_thermal, "must be positive (infinity: adiabatic)"));
         }
         if !self.external_force.is_finite() {
@@ -282,18 +287,18 @@ impl Effects {
         }
         if let Some(s) = self.supply_line {
             s.restriction.validate("effects.supply_line")?;
-            if !(s.restriction.c > 0.0) {
+            if !positive(s.restriction.c) {
                 return Err(RigError::invalid("effects.supply_line.c", s.restriction.c, "must be positive"));
             }
             if !(s.volume > 0.0 && s.volume.is_finite()) {
                 return Err(RigError::invalid("effects.supply_line.volume", s.volume, "must be positive and finite"));
             }
-            if !(s.tau_thermal > 0.0) {
+            if !positive(s.tau_thermal) {
                 return Err(RigError::invalid("effects.supply_line.tau_thermal", s.tau_thermal, "must be positive"));
             }
         }
         if let Some(t) = self.tau_thermal {
-            if !(t > 0.0) {
+            if !positive(t) {
                 return Err(RigError::invalid("effects.tau_thermal", t, "must be positive (infinity: adiabatic)"));
             }
         }
@@ -348,7 +353,7 @@ impl RunSpec {
         if !(self.rtol >= 1e-12 && self.rtol <= 1e-2) {
             return Err(RigError::invalid("run.rtol", self.rtol, "must lie in [1e-12, 1e-2]"));
         }
-        if !(self.max_step > 0.0) {
+        if !positive(self.max_step) {
             return Err(RigError::invalid("run.max_step", self.max_step, "must be positive"));
         }
         match &self.sampling {
@@ -359,7 +364,7 @@ impl RunSpec {
             }
             Sampling::At(ts) => {
                 for w in ts.windows(2) {
-                    if !(w[1] >= w[0]) {
+                    if w[1] < w[0] || w[1].is_nan() {
                         return Err(RigError::invalid("run.sampling.at", w[1], "instants must be sorted"));
                     }
                 }

@@ -60,6 +60,9 @@
 //!   repeats the last step with a shorter step size: an event state is
 //!   therefore a true integration point, not an interpolated one.
 
+// Index loops read like the textbook algorithms they implement.
+#![allow(clippy::needless_range_loop)]
+
 use crate::linalg::Lu;
 
 const GAMMA: f64 = 0.25;

@@ -280,7 +280,8 @@ pub fn measure(trace: &Trace, spec: &SensorSpec, seed: u64) -> Result<Measuremen
         for (col, &i) in columns.iter_mut().zip(&wanted) {
             let c = chans[i];
             let noise = if c.noise > 0.0 { c.noise * rng.normal() } else { 0.0 };
-            let v = draws.offset[i] + (1.0 + draws.gain[i]) * signals[i][k] + noise;
+            let s = signals[i].get(k).copied().unwrap_or(f64::NAN);
+            let v = draws.offset[i] + (1.0 + draws.gain[i]) * s + noise;
             col.1.push(quantise(v, c.quantum));
         }
     }

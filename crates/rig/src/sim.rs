@@ -173,6 +173,9 @@ enum Ev {
     Graze,
 }
 
+/// An event found in a step: time, state, the events that hold there.
+type Located = (f64, Vec<f64>, Vec<Ev>);
+
 const F_REF: f64 = 1.0;
 const X_REF: f64 = 1e-3;
 const V_REF: f64 = 1e-3;
@@ -438,7 +441,7 @@ impl<'a> Driver<'a> {
 
     /// Looks for a state event in the last step [t_prev, t]. Returns the
     /// event time, state and the events that hold there.
-    fn locate(&mut self, st: &mut Sdirk) -> Result<Option<(f64, Vec<f64>, Vec<Ev>)>, RigError> {
+    fn locate(&mut self, st: &mut Sdirk) -> Result<Option<Located>, RigError> {
         let t0 = st.t_prev;
         let h = st.t - t0;
         let g0 = self.event_values(&st.y_prev);

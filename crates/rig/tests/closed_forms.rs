@@ -84,7 +84,10 @@ fn adiabatic_filling_tends_to_gamma_times_supply_temperature() {
     }
     let (mf, tf, pf) = (tr.m[0][n], tr.temp[0][n], tr.p[0][n]);
     let tf_exact = (m0 * g.cv * t0 + (mf - m0) * g.cp() * ts) / (mf * g.cv);
-    println!("adiabatic filling: T_final = {tf:.6} K (γT_s = {:.6} K), p_final = {pf:.3} Pa, worst energy error {worst:.2e}", g.gamma() * ts);
+    println!(
+        "adiabatic filling: T_final = {tf:.6} K (γT_s = {:.6} K), p_final = {pf:.3} Pa, worst energy error {worst:.2e}",
+        g.gamma() * ts
+    );
     assert!(worst < 1e-7, "{worst}");
     assert!((tf - tf_exact).abs() / tf_exact < 1e-7);
     let p_end = *tr.p[0].last().unwrap();

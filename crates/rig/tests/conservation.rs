@@ -8,7 +8,9 @@
 //! steps) × rtol relative to U, and shrinks with the tolerance.
 
 use rig::tank::{run_vessels, Vessel, VesselSystem};
-use rig::{simulate, Effects, FrictionVariant, Gas, GasLaw, LeakLaw, ModelForm, Restriction, Rig, RunSpec, SubsonicLaw, SupplyLine, LPM_PER_BAR};
+use rig::{
+    simulate, Effects, FrictionVariant, Gas, GasLaw, LeakLaw, ModelForm, Restriction, Rig, RunSpec, SubsonicLaw, SupplyLine, LPM_PER_BAR,
+};
 
 fn pair(tau: f64, law: GasLaw) -> VesselSystem {
     VesselSystem {

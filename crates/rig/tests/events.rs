@@ -4,9 +4,7 @@
 //! exceeds the breakaway level by more than the integration tolerance, over
 //! a grid of breakaway ratios, Stribeck laws and tolerances.
 
-use rig::{
-    simulate, Effects, EventKind, FrictionVariant, ModelForm, Rig, RunSpec, Sampling, Stribeck, StribeckShape, Trace, ValvePos,
-};
+use rig::{simulate, Effects, EventKind, FrictionVariant, ModelForm, Rig, RunSpec, Sampling, Stribeck, StribeckShape, Trace, ValvePos};
 
 fn run(rig: &Rig, form: &ModelForm, fx: &Effects, rtol: f64, dt: f64) -> Trace {
     let spec = RunSpec { rtol, ..RunSpec::cycles(3, dt) };
@@ -92,10 +90,10 @@ fn breakaway_happens_when_the_force_reaches_the_breakaway_level() {
     let g: Vec<f64> = (0..41).map(|i| tr.f_applied[i] - tr.f_breakaway[i]).collect();
     let slope = (g[19] - g[18]) / 1e-6;
     assert!(slope > 0.0);
-    for i in 0..41 {
+    for (i, gi) in g.iter().enumerate() {
         if tr.t[i] <= tb {
             assert!(tr.stuck[i], "{i}");
-            assert!(g[i] <= 1e-6, "held above breakaway at sample {i}: {}", g[i]);
+            assert!(*gi <= 1e-6, "held above breakaway at sample {i}: {gi}");
         } else {
             assert!(!tr.stuck[i], "{i}");
         }
@@ -121,7 +119,15 @@ fn each_cycle_has_the_expected_event_sequence() {
     for (i, e) in tr.events.iter().enumerate() {
         if e.kind == EventKind::SwitchExtended {
             let rest: Vec<EventKind> = tr.events[i + 1..].iter().map(|e| e.kind).take(4).collect();
-            assert_eq!(rest, vec![EventKind::ValveSwitch(ValvePos::Retract), EventKind::EndStop(true), EventKind::Breakaway(-1.0), EventKind::SwitchRetracted]);
+            assert_eq!(
+                rest,
+                vec![
+                    EventKind::ValveSwitch(ValvePos::Retract),
+                    EventKind::EndStop(true),
+                    EventKind::Breakaway(-1.0),
+                    EventKind::SwitchRetracted
+                ]
+            );
             assert_eq!(tr.events[i + 1].t, e.t);
         }
     }
