@@ -31,8 +31,10 @@
 //!   after a rejection; Newton failure: a fresh Jacobian first, then h/3.
 //! * Newton: stopped when η‖ΔZ‖ ≤ 0.003 (weighted norm, η = θ/(1 − θ), θ
 //!   the contraction rate; Hairer & Wanner IV.8; on the first iteration
-//!   only if ‖ΔZ‖ ≤ 1 as well); failure if θ ≥ 0.99 or after 12
-//!   iterations. The tolerance is ten times tighter than Hairer & Wanner's
+//!   only if ‖ΔZ‖ ≤ 1 as well); failure after 12 iterations. When the
+//!   iteration converges slowly without crossing a kink (θ ≥ 0.99, or
+//!   predicted not to converge in time) the Jacobian is re-evaluated at the
+//!   current iterate, once per stage, before giving up. The tolerance is ten times tighter than Hairer & Wanner's
 //!   usual 0.03 because of the ellipse's cusp: with a looser Newton the
 //!   stage values scatter across the cusp by a sizeable fraction of the
 //!   error tolerance, the error estimate sees that scatter as error, and a

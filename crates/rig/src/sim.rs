@@ -21,6 +21,13 @@
 //! |F_a| ≥ F_s, and is held at most 10⁻¹¹ s past that instant. Timed events
 //! (valve switches) are hit exactly by ending a step on them.
 //!
+//! Right after a breakaway v = 0, so the stop event is armed only once the
+//! velocity has left the noise band (ten times its absolute error weight)
+//! in the sliding direction. If instead the velocity turns against the
+//! sliding direction first — the net force grazed the breakaway level and
+//! fell back — the piston is taken never to have moved: v = 0 and the
+//! decision at rest below is made again (a "graze").
+//!
 //! Decision at rest (Karnopp 1985): with v = 0 the piston slides in
 //! direction d = sgn(F_a) if |F_a| ≥ F_s and no end stop blocks direction d;
 //! otherwise it is held (by friction, or by the stop for forces into it).
