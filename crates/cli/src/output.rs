@@ -348,6 +348,7 @@ pub fn summary(result: &SimResult, model_name: &str, columns: &[usize]) -> serde
         "solver": {
             "steps": result.stats.steps, "rejected": result.stats.rejected,
             "rhs_evaluations": result.rhs_evaluations, "jacobians": result.stats.jacobians,
+            "linear_algebra": result.linear_algebra, "evaluations_per_jacobian": result.evaluations_per_jacobian,
             "events": result.events.len(), "samples": result.times.len()
         }
     })

@@ -912,6 +912,8 @@ mod tests {
             t_final: 1.0,
             stats: Default::default(),
             rhs_evaluations: 0,
+            linear_algebra: "dense",
+            evaluations_per_jacobian: 0,
         }
     }
 

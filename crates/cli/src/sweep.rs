@@ -327,10 +327,14 @@ fn build_table(axes: &[Axis], temps: &[String], ncyc: usize, total: usize, outco
                 let c = o.cycles.get(k);
                 row.extend([num(c.map(|c| c.0)), num(c.map(|c| c.1)), num(c.map(|c| c.2))]);
             }
-            row.push(num(o.cycles.last().map(|c| c.2)));
+            // A case that stopped early keeps the cycles it completed, but has
+            // no cycle time and no temperature range (they would describe a
+            // shorter run than the other rows).
+            let failed = o.error.is_some();
+            row.push(if failed { Cell::Empty } else { num(o.cycles.last().map(|c| c.2)) });
             for &(lo, hi) in &o.temps {
-                row.push(num(lo));
-                row.push(num(hi));
+                row.push(if failed { Cell::Empty } else { num(lo) });
+                row.push(if failed { Cell::Empty } else { num(hi) });
             }
             row.push(o.error.clone().map_or(Cell::Empty, Cell::Text));
             row

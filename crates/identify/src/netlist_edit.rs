@@ -255,8 +255,8 @@ mod tests {
         // not written: the block default (switching_time 0, breakaway ratio 1)
         assert_eq!(param_si(&flat, "dcv", "switching_time").unwrap(), 0.0);
         assert_eq!(param_si(&flat, "friction", "breakaway_ratio").unwrap(), 1.0);
-        // init values are parameters too
-        assert!((param_si(&flat, "rod", "p0").unwrap() - 4e5).abs() < 1e-9);
+        // the shipped model leaves initial pressures to the rest state
+        assert!(!is_given(&flat, "rod", "p0"));
         assert!(param_si(&flat, "head", "nonsense").unwrap_err().to_string().contains("accepted"));
         assert!(param_si(&flat, "nobody", "C").is_err());
     }
@@ -266,7 +266,11 @@ mod tests {
         let mut flat = meter_out();
         set_param_si(&mut flat, "friction", "k0", 17.5).unwrap();
         assert_eq!(param_si(&flat, "friction", "k0").unwrap(), 17.5);
+        // an initial value written in `init` stays there and reads back
+        component_mut(&mut flat, "rod").unwrap().init.insert("p0".into(), Value::Number(4e5));
+        assert!((param_si(&flat, "rod", "p0").unwrap() - 4e5).abs() < 1e-9);
         set_param_si(&mut flat, "rod", "p0", 7e5).unwrap();
+        assert_eq!(param_si(&flat, "rod", "p0").unwrap(), 7e5);
         let rod = component(&flat, "rod").unwrap();
         assert!(rod.init.contains_key("p0") && !rod.params.contains_key("p0"));
         assert!(graph::build(&flat).is_ok());

@@ -20,9 +20,12 @@
 //! Assumptions and valid ranges:
 //! * `f` is smooth (at least C⁴ for full order) between the events the caller
 //!   handles; discontinuities must be announced through root functions.
-//! * The Jacobian is dense and formed by forward differences, so the method is
-//!   meant for small systems (cost per step ≈ n + 7 evaluations of `f` plus one
-//!   O(n³) LU factorisation).
+//! * The Jacobian is dense and formed by forward differences (cost per step ≈
+//!   n + 7 evaluations of `f` plus one O(n³) LU factorisation), unless the
+//!   system declares its structure ([`OdeSystem::jacobian_sparsity`]): then
+//!   the Jacobian is stored sparse, filled by the system
+//!   ([`OdeSystem::jacobian`]) or by grouped differences, and systems of at
+//!   least [`SPARSE_LU_MIN_STATES`] states get a sparse LU (faer).
 //! * Integration may go forwards or backwards in `t`.
 //!
 //! Typical use (a bouncing ball; the event is the height crossing zero):
@@ -61,6 +64,8 @@
 //! ```
 //!
 //! Modules: `lu` (in-place dense LU with partial pivoting on an `nalgebra::DMatrix`),
+//! `sparsity` (declared Jacobian structure, column grouping), `sparse_lu`
+//! (faer's sparse LU of the iteration matrix),
 //! `rodas4` (coefficients), `dense` (dense output), `roots` (event location),
 //! `rosenbrock` (the integrator and its step-size controller).
 
@@ -73,12 +78,17 @@ mod lu;
 mod rodas4;
 mod roots;
 mod rosenbrock;
+mod sparse_lu;
+mod sparsity;
 mod tableau;
 
 #[cfg(test)]
 mod tests;
+#[cfg(test)]
+mod tests_structure;
 
-pub use rosenbrock::Rosenbrock;
+pub use rosenbrock::{Rosenbrock, SPARSE_LU_MIN_STATES};
+pub use sparsity::{Sparsity, SparsityError};
 
 /// The Rosenbrock methods [`Rosenbrock`] offers.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
@@ -113,6 +123,23 @@ pub trait OdeSystem {
     /// evaluation per Jacobian. Default false.
     fn autonomous(&self) -> bool {
         false
+    }
+    /// Structure of `∂f/∂y`: the rows where each non-quadrature column may be
+    /// non-zero (a superset is fine; an entry left out is taken as zero). A
+    /// system that declares one gets a Jacobian in that structure — filled by
+    /// [`OdeSystem::jacobian`] or by grouped finite differences — and, when
+    /// large, a sparse LU. Asked once per dimension. Default: `None` (dense).
+    fn jacobian_sparsity(&self) -> Option<Sparsity> {
+        None
+    }
+    /// Fill the entries of `∂f/∂y` at (t, y) in the order of
+    /// [`OdeSystem::jacobian_sparsity`] (column by column), given
+    /// `f0 = f(t, y)` and the perturbation `deltas[j]` the integrator would
+    /// use for column `j`. Returns `Ok(false)` to let the integrator use
+    /// grouped finite differences instead (the default). Evaluations the
+    /// system spends here are not counted in [`Stats::rhs_evals`].
+    fn jacobian(&mut self, _t: f64, _y: &[f64], _f0: &[f64], _deltas: &[f64], _values: &mut [f64]) -> Result<bool, RhsError> {
+        Ok(false)
     }
     /// Number of root (event) functions.
     fn n_roots(&self) -> usize {
@@ -185,6 +212,18 @@ pub struct Options {
     pub max_steps: usize,
     /// Width of the final root bracket, in units of `t`.
     pub root_tol: f64,
+    /// Root functions that change sign within this time after the first one
+    /// (and within the same step) are reported with it, as one event, and the
+    /// returned point moves past all of them; 0 (the default) means
+    /// `root_tol`. Lets identical subsystems whose events differ only by
+    /// round-off switch together instead of one restart each.
+    pub event_window: f64,
+    /// The same window as a fraction of the step in which the first root
+    /// lies (the larger of the two applies; default 0). A fraction `r` moves
+    /// an event by at most `r·h`, which changes each state by at most `r`
+    /// times its change over the step: with `r = rtol`, within the step's
+    /// error tolerance.
+    pub event_window_per_step: f64,
 }
 
 impl Options {
@@ -200,7 +239,17 @@ impl Options {
 
 impl Default for Options {
     fn default() -> Self {
-        Self { rtol: 1e-6, atol: Vec::new(), h_init: None, h_max: f64::INFINITY, h_min: 0.0, max_steps: 100_000, root_tol: 1e-10 }
+        Self {
+            rtol: 1e-6,
+            atol: Vec::new(),
+            h_init: None,
+            h_max: f64::INFINITY,
+            h_min: 0.0,
+            max_steps: 100_000,
+            root_tol: 1e-10,
+            event_window: 0.0,
+            event_window_per_step: 0.0,
+        }
     }
 }
 

@@ -45,6 +45,8 @@ use nalgebra::DMatrix;
 use crate::dense::StepDense;
 use crate::lu::LuFactors;
 use crate::roots::{changed, watch, RootFinder};
+use crate::sparse_lu::SparseLu;
+use crate::sparsity::Sparsity;
 use crate::tableau::{DenseKind, Tableau};
 use crate::Method;
 use crate::{Advance, Integrator, IntegratorError, OdeSystem, Options, RhsError, RootDirection, Stats};
@@ -62,6 +64,49 @@ const MAX_FAILURES: usize = 100;
 const MAX_SINGULAR: usize = 5;
 /// Accepted steps a W-method may take with one Jacobian.
 const MAX_JACOBIAN_AGE: usize = 20;
+/// Smallest number of (non-quadrature) states for which a system that
+/// declares its Jacobian structure gets a sparse LU; below it a dense LU of
+/// the small matrix is cheaper.
+pub const SPARSE_LU_MIN_STATES: usize = 40;
+
+/// The Jacobian in the structure the system declared
+/// ([`OdeSystem::jacobian_sparsity`]).
+#[derive(Debug)]
+struct SparseJacobian {
+    pattern: Sparsity,
+    values: Vec<f64>,
+    /// Column groups for finite differences (used when the system does not fill the values itself).
+    groups: Vec<Vec<usize>>,
+    /// (row, column, entry) of the entries in quadrature rows.
+    quadrature: Vec<(usize, usize, usize)>,
+    /// Perturbation of each state column.
+    deltas: Vec<f64>,
+    /// Sparse factorisation, for systems of at least [`SPARSE_LU_MIN_STATES`] states.
+    lu: Option<SparseLu>,
+}
+
+impl SparseJacobian {
+    fn new(pattern: Sparsity, ns: usize) -> SparseJacobian {
+        let mut quadrature = Vec::new();
+        for j in 0..pattern.n_columns() {
+            for (k, &r) in pattern.column_range(j).zip(pattern.column(j)) {
+                if r >= ns {
+                    quadrature.push((r, j, k));
+                }
+            }
+        }
+        let lu = if ns >= SPARSE_LU_MIN_STATES { SparseLu::new(&pattern, ns) } else { None };
+        SparseJacobian { values: vec![0.0; pattern.nnz()], groups: pattern.column_groups(), quadrature, deltas: vec![0.0; ns], lu, pattern }
+    }
+}
+
+impl Clone for SparseJacobian {
+    fn clone(&self) -> Self {
+        let mut copy = SparseJacobian::new(self.pattern.clone(), self.deltas.len());
+        copy.values.copy_from_slice(&self.values);
+        copy
+    }
+}
 
 /// Outcome of one step attempt.
 enum Attempt {
@@ -112,7 +157,13 @@ pub struct Rosenbrock {
     watch: Vec<f64>,
     /// Last non-zero side of each root function since the last restart (0 = not known).
     last_side: Vec<f64>,
+    /// Dense Jacobian (systems without a declared structure).
     jac: DMatrix<f64>,
+    /// Jacobian in a declared structure (then `jac` is empty).
+    sparse: Option<SparseJacobian>,
+    /// The system's structure has been asked since the last resize.
+    structure_known: bool,
+    /// Dense LU of the iteration matrix (unless the sparse one is used).
     lu: LuFactors,
     root_finder: RootFinder,
     // Step-size control.
@@ -172,6 +223,8 @@ impl Rosenbrock {
             watch: Vec::new(),
             last_side: Vec::new(),
             jac: DMatrix::zeros(0, 0),
+            sparse: None,
+            structure_known: false,
             lu: LuFactors::new(0),
             root_finder: RootFinder::new(0),
             h_next: None,
@@ -248,11 +301,50 @@ impl Rosenbrock {
         self.q1 = z();
         self.q2 = z();
         self.y_root = z();
-        self.jac = DMatrix::zeros(dim, dim);
-        self.lu = LuFactors::new(dim - self.nq.min(dim));
+        self.jac = DMatrix::zeros(0, 0);
+        self.sparse = None;
+        self.structure_known = false;
+        self.lu = LuFactors::new(0);
         self.cache_valid = false;
         self.jac_valid = false;
         self.roots_valid = false;
+    }
+
+    /// Ask the system for its Jacobian structure (once per dimension) and
+    /// size the Jacobian and the LU accordingly.
+    fn setup_structure(&mut self, sys: &dyn OdeSystem) -> Result<(), IntegratorError> {
+        if self.structure_known {
+            return Ok(());
+        }
+        let (n, ns) = (self.n, self.n - self.nq.min(self.n));
+        self.sparse = match sys.jacobian_sparsity() {
+            None => None,
+            Some(p) if p.n_rows() == n && p.n_columns() == ns => Some(SparseJacobian::new(p, ns)),
+            Some(p) => {
+                let message = format!(
+                    "the declared Jacobian structure is {}×{} but the system has {n} equations and {ns} non-quadrature states",
+                    p.n_rows(),
+                    p.n_columns()
+                );
+                return Err(IntegratorError::Rhs { t: self.t_cache, source: RhsError(message) });
+            }
+        };
+        self.jac = if self.sparse.is_some() { DMatrix::zeros(0, 0) } else { DMatrix::zeros(n, n) };
+        let sparse_lu = self.sparse.as_ref().is_some_and(|s| s.lu.is_some());
+        self.lu = LuFactors::new(if sparse_lu { 0 } else { ns });
+        self.structure_known = true;
+        Ok(())
+    }
+
+    /// The linear algebra in use: "dense" (finite-difference Jacobian, dense
+    /// LU), "structured" (declared structure, dense LU) or "sparse"
+    /// (declared structure, sparse LU). Known after the first `advance`.
+    pub fn linear_algebra(&self) -> &'static str {
+        match &self.sparse {
+            None => "dense",
+            Some(s) if s.lu.is_some() => "sparse",
+            Some(_) => "structured",
+        }
     }
 
     fn resize_roots(&mut self, m: usize) {
@@ -307,10 +399,82 @@ impl Rosenbrock {
         Ok(if h.is_finite() && h > 0.0 { h } else { h0 })
     }
 
-    /// Finite-difference Jacobian and time derivative at (t, y), using `self.f0`.
+    /// Perturbation of state column `j` for finite differences.
+    fn column_delta(&self, y: &[f64], j: usize) -> f64 {
+        let typ = self.opts.atol[j] / self.opts.rtol;
+        let d = f64::EPSILON.sqrt() * y[j].abs().max(typ);
+        if d == 0.0 || !d.is_finite() {
+            f64::EPSILON.sqrt()
+        } else {
+            d
+        }
+    }
+
+    /// Jacobian in the declared structure at (t, y), using `self.f0`: filled by
+    /// the system if it can, else by grouped forward differences
+    /// (Curtis–Powell–Reid; see `sparsity.rs`), a group falling back to a
+    /// backward difference where f is not finite.
+    fn structured_jacobian(&mut self, sys: &mut dyn OdeSystem, t: f64, y: &[f64]) -> Result<(), IntegratorError> {
+        let Some(mut sp) = self.sparse.take() else { return Ok(()) };
+        for j in 0..sp.deltas.len() {
+            sp.deltas[j] = self.column_delta(y, j);
+        }
+        let filled = sys.jacobian(t, y, &self.f0, &sp.deltas, &mut sp.values);
+        let result = match filled {
+            Err(source) => Err(IntegratorError::Rhs { t, source }),
+            Ok(true) => match sp.values.iter().position(|v| !v.is_finite()) {
+                Some(k) => Err(IntegratorError::NonFinite { t, index: row_of_entry(&sp.pattern, k) }),
+                None => Ok(()),
+            },
+            Ok(false) => self.grouped_differences(sys, t, y, &mut sp),
+        };
+        self.sparse = Some(sp);
+        result
+    }
+
+    fn grouped_differences(&mut self, sys: &mut dyn OdeSystem, t: f64, y: &[f64], sp: &mut SparseJacobian) -> Result<(), IntegratorError> {
+        self.ytmp.copy_from_slice(y);
+        for group in &sp.groups {
+            let mut bad = 0;
+            let mut ok = false;
+            for sign in [1.0, -1.0] {
+                for &j in group {
+                    self.ytmp[j] = y[j] + sign * sp.deltas[j];
+                }
+                match eval_rhs(sys, t, &self.ytmp, &mut self.fs, &mut self.stats)? {
+                    None => {
+                        for &j in group {
+                            let dj = self.ytmp[j] - y[j];
+                            for k in sp.pattern.column_range(j) {
+                                let r = sp.pattern.rows()[k];
+                                sp.values[k] = (self.fs[r] - self.f0[r]) / dj;
+                            }
+                        }
+                        ok = true;
+                    }
+                    Some(index) => bad = index,
+                }
+                for &j in group {
+                    self.ytmp[j] = y[j];
+                }
+                if ok {
+                    break;
+                }
+            }
+            if !ok {
+                return Err(IntegratorError::NonFinite { t, index: bad });
+            }
+        }
+        Ok(())
+    }
+
+    /// Jacobian (finite differences, or the declared structure) and time derivative at (t, y), using `self.f0`.
     fn jacobian(&mut self, sys: &mut dyn OdeSystem, t: f64, y: &[f64], h: f64) -> Result<(), IntegratorError> {
         self.jac_age = 0;
-        let sqrt_eps = f64::EPSILON.sqrt();
+        if self.sparse.is_some() {
+            self.structured_jacobian(sys, t, y)?;
+            return self.time_derivative(sys, t, y, h);
+        }
         self.ytmp.copy_from_slice(y);
         let n_state = self.n - sys.n_quadrature().min(self.n);
         for j in n_state..self.n {
@@ -319,11 +483,7 @@ impl Rosenbrock {
             }
         }
         for j in 0..n_state {
-            let typ = self.opts.atol[j] / self.opts.rtol;
-            let mut d = sqrt_eps * y[j].abs().max(typ);
-            if d == 0.0 || !d.is_finite() {
-                d = sqrt_eps;
-            }
+            let d = self.column_delta(y, j);
             let yj = y[j];
             // Forward difference; if f is not finite there (e.g. at the edge of its
             // domain), fall back to a backward difference.
@@ -348,6 +508,12 @@ impl Rosenbrock {
                 return Err(IntegratorError::NonFinite { t, index: bad });
             }
         }
+        self.time_derivative(sys, t, y, h)
+    }
+
+    /// ∂f/∂t by a forward difference (zero for autonomous systems).
+    fn time_derivative(&mut self, sys: &mut dyn OdeSystem, t: f64, y: &[f64], h: f64) -> Result<(), IntegratorError> {
+        let sqrt_eps = f64::EPSILON.sqrt();
         if sys.autonomous() {
             self.ft.fill(0.0);
             self.stats.jacobians += 1;
@@ -392,17 +558,34 @@ impl Rosenbrock {
         let h = t1 - t0;
         let inv_hg = 1.0 / (h * self.tableau.gamma);
         let ns = n - self.nq;
-        {
-            let a = self.lu.matrix_mut();
-            for j in 0..ns {
-                for i in 0..ns {
-                    a[(i, j)] = -self.jac[(i, j)];
-                }
-                a[(j, j)] += inv_hg;
-            }
-        }
         self.stats.lu += 1;
-        if self.lu.factor().is_err() {
+        let factored = match self.sparse.as_mut() {
+            Some(SparseJacobian { lu: Some(slu), values, .. }) => slu.factor(values, inv_hg),
+            Some(sp) => {
+                let a = self.lu.matrix_mut();
+                a.fill(0.0);
+                for j in 0..ns {
+                    for (k, &r) in sp.pattern.column_range(j).zip(sp.pattern.column(j)) {
+                        if r < ns {
+                            a[(r, j)] = -sp.values[k];
+                        }
+                    }
+                    a[(j, j)] += inv_hg;
+                }
+                self.lu.factor()
+            }
+            None => {
+                let a = self.lu.matrix_mut();
+                for j in 0..ns {
+                    for i in 0..ns {
+                        a[(i, j)] = -self.jac[(i, j)];
+                    }
+                    a[(j, j)] += inv_hg;
+                }
+                self.lu.factor()
+            }
+        };
+        if factored.is_err() {
             return Ok(Attempt::Singular);
         }
         let tab = &self.tableau;
@@ -412,6 +595,7 @@ impl Rosenbrock {
         let ft = &self.ft;
         let lu = &self.lu;
         let jac = &self.jac;
+        let mut sparse = self.sparse.as_mut();
         let stats = &mut self.stats;
         let inv_h = 1.0 / h;
         for st in 0..tab.stages {
@@ -444,14 +628,30 @@ impl Rosenbrock {
                 ui[i] = v;
             }
             // W = [W_ss 0; −J_qs I/(hγ)]: solve the states, then the quadratures
-            lu.solve(&mut ui[..ns]);
             let hg = h * tab.gamma;
-            for q in ns..n {
-                let mut v = ui[q];
-                for j in 0..ns {
-                    v += jac[(q, j)] * ui[j];
+            match sparse.as_deref_mut() {
+                Some(sp) => {
+                    match sp.lu.as_mut() {
+                        Some(slu) => slu.solve(&mut ui[..ns]),
+                        None => lu.solve(&mut ui[..ns]),
+                    }
+                    for &(q, j, k) in &sp.quadrature {
+                        ui[q] += sp.values[k] * ui[j];
+                    }
+                    for q in ns..n {
+                        ui[q] *= hg;
+                    }
                 }
-                ui[q] = hg * v;
+                None => {
+                    lu.solve(&mut ui[..ns]);
+                    for q in ns..n {
+                        let mut v = ui[q];
+                        for j in 0..ns {
+                            v += jac[(q, j)] * ui[j];
+                        }
+                        ui[q] = hg * v;
+                    }
+                }
             }
         }
         for i in 0..n {
@@ -612,6 +812,7 @@ impl Integrator for Rosenbrock {
             self.resize(y.len());
         }
         self.resize_roots(sys.n_roots());
+        self.setup_structure(sys)?;
         if !t.is_finite() || !t_stop.is_finite() {
             return Err(IntegratorError::NonFinite { t: *t, index: 0 });
         }
@@ -774,11 +975,13 @@ impl Integrator for Rosenbrock {
                         eval_roots(sys, tm, y_root, g)
                     })?;
                     self.g_ret.copy_from_slice(&self.root_finder.g_hi);
-                    // Functions that cross within `tol` after the first one are reported
-                    // too; the returned point then moves onto their new side as well.
+                    // Functions that cross within `tol` (or the event window) after the
+                    // first one are reported too; the returned point then moves onto
+                    // their new side as well.
                     let pending = (0..m).any(|i| !changed(self.watch[i], self.g_ret[i]) && changed(self.watch[i], self.g1[i]));
                     if pending {
-                        let tp = if (t1 - tr).abs() <= tol { t1 } else { tr + dir * tol };
+                        let window = tol.max(self.opts.event_window).max(self.opts.event_window_per_step * (t1 - t0).abs());
+                        let tp = if (t1 - tr).abs() <= window { t1 } else { tr + dir * window };
                         if tp == t1 {
                             self.g_probe.copy_from_slice(&self.g1);
                         } else {
@@ -857,4 +1060,9 @@ impl Integrator for Rosenbrock {
     fn stats(&self) -> Stats {
         self.stats
     }
+}
+
+/// Row of entry `k` of a structure (for error messages).
+fn row_of_entry(p: &Sparsity, k: usize) -> usize {
+    p.rows().get(k).copied().unwrap_or(0)
 }

@@ -1,13 +1,14 @@
 //! Flattening a wired circuit into one hybrid ODE and integrating it.
 //!
 //! Owns: the resource estimate of a run ([`budget`]), the flat state vector and right-hand side ([`model`]), algebraic
-//! junctions ([`junction`]), stick–slip and end-stop modes of mechanical
+//! junctions ([`junction`]), the Jacobian from the circuit's structure ([`jacobian`]), stick–slip and end-stop modes of mechanical
 //! nodes ([`mechanics`]), the rest state before t = 0 ([`rest`]), the event loop and result sampling ([`simulate`]),
 //! and the reading of simulation settings ([`settings`]).
 //! Never knows: concrete block types (blocks are reached through the
 //! `Block` trait only), files, terminals.
 
 pub mod budget;
+pub mod jacobian;
 pub mod junction;
 pub mod mechanics;
 pub mod model;

@@ -92,6 +92,14 @@ pub struct Model {
     pub(crate) at_rest: bool,
 }
 
+/// Saved junction warm starts (see [`Model::save_warm_start_into`]).
+#[derive(Debug, Clone, Default)]
+pub(crate) struct WarmStart {
+    guess: Vec<f64>,
+    step: Vec<f64>,
+    slope: Vec<f64>,
+}
+
 /// Why the model could not be built or evaluated.
 #[derive(Debug, thiserror::Error)]
 pub enum ModelError {
@@ -270,17 +278,32 @@ impl Model {
     /// [`Model::eval`] that leaves no trace in the model: the junction warm
     /// starts and the evaluation counter are restored afterwards, so an
     /// observer that calls it does not change the run it observes.
-    pub fn eval_detached(&mut self, t: f64, y: &[f64], g: Option<&mut [f64]>) -> Result<(), ModelError> {
+    pub fn eval_detached(&mut self, t: f64, y: &[f64], dy: Option<&mut [f64]>, g: Option<&mut [f64]>) -> Result<(), ModelError> {
         let guess = self.junction_guess.clone();
         let step = self.junction_step.clone();
         let slope = self.junction_slope.clone();
         let evaluations = self.evaluations;
-        let r = self.eval(t, y, None, g);
+        let r = self.eval(t, y, dy, g);
         self.junction_guess = guess;
         self.junction_step = step;
         self.junction_slope = slope;
         self.evaluations = evaluations;
         r
+    }
+
+    /// Copy the junction solver's warm starts into `w` (to evaluate elsewhere and come back).
+    pub(crate) fn save_warm_start_into(&self, w: &mut WarmStart) {
+        for (to, from) in [(&mut w.guess, &self.junction_guess), (&mut w.step, &self.junction_step), (&mut w.slope, &self.junction_slope)] {
+            to.clear();
+            to.extend_from_slice(from);
+        }
+    }
+
+    /// Put back warm starts saved by [`Model::save_warm_start_into`].
+    pub(crate) fn restore_warm_start_from(&mut self, w: &WarmStart) {
+        self.junction_guess.copy_from_slice(&w.guess);
+        self.junction_step.copy_from_slice(&w.step);
+        self.junction_slope.copy_from_slice(&w.slope);
     }
 
     /// Initial state vector: inertias first (their positions fix chamber volumes).
@@ -568,9 +591,19 @@ impl Model {
     }
 
     /// Recorded outputs at (t, y): evaluates the model, then asks every block.
+    ///
+    /// Recording leaves no trace in the run: the junction warm starts and the
+    /// evaluation counter are restored, so a run gives the same numbers
+    /// whether or not (and how densely) it is sampled.
     pub fn record(&mut self, t: f64, y: &[f64], row: &mut [Option<f64>]) -> Result<(), ModelError> {
         let mut dy = vec![0.0; self.dim()];
-        self.eval(t, y, Some(&mut dy), None)?;
+        let mut warm = WarmStart::default();
+        self.save_warm_start_into(&mut warm);
+        let evaluations = self.evaluations;
+        let evaluated = self.eval(t, y, Some(&mut dy), None);
+        self.restore_warm_start_from(&warm);
+        self.evaluations = evaluations;
+        evaluated?;
         for (bi, slot) in self.slots.iter().enumerate() {
             let block = &self.circuit.instances[bi].block;
             let n_sig = slot.sig_out.len();

@@ -351,7 +351,16 @@ fn steady_flow(model: &mut Model, dividers: &[usize], report: &mut RestReport) -
     for a in atol[n - model.n_quadratures()..].iter_mut() {
         *a = 1e30;
     }
-    let opts = ode::Options { rtol: 1e-10, atol, h_init: None, h_max: f64::INFINITY, h_min: 0.0, max_steps: 200_000, root_tol: 1e-10 };
+    let opts = ode::Options {
+        rtol: 1e-10,
+        atol,
+        h_init: None,
+        h_max: f64::INFINITY,
+        h_min: 0.0,
+        max_steps: 200_000,
+        root_tol: 1e-10,
+        ..ode::Options::default()
+    };
     let mut integrator = ode::Rosenbrock::new(opts, n);
     let nodes: Vec<usize> = dividers
         .iter()

@@ -49,5 +49,6 @@ pub fn options_from(sim: &Simulation) -> Result<SimOptions, SolveError> {
         max_step,
         max_events: 100_000,
         method,
+        structured_jacobian: true,
     })
 }

@@ -11,6 +11,7 @@
 //! condition that no handling clears is an error naming the root). Time
 //! events due at the instant of a root are handled with it.
 
+use crate::jacobian::{Structure, Workspace};
 use crate::mechanics::{self, Mode};
 use crate::model::{Model, ModelError, N_QUADRATURE};
 use blocks::block::{CycleRecord, EventKind, MechState};
@@ -38,6 +39,10 @@ pub struct SimOptions {
     pub max_events: usize,
     /// Integration method.
     pub method: ode::Method,
+    /// Use the model's Jacobian structure where it pays (see
+    /// [`crate::jacobian`]); `false` forces plain finite differences and a
+    /// dense LU (for comparisons).
+    pub structured_jacobian: bool,
 }
 
 impl Default for SimOptions {
@@ -52,6 +57,7 @@ impl Default for SimOptions {
             max_step: 0.05,
             max_events: 100_000,
             method: ode::Method::default(),
+            structured_jacobian: true,
         }
     }
 }
@@ -192,6 +198,13 @@ pub struct SimResult {
     pub t_final: f64,
     pub stats: ode::Stats,
     pub rhs_evaluations: u64,
+    /// How the integrator solved its linear systems: "dense" (plain finite
+    /// differences, dense LU), "structured" (Jacobian from the circuit's
+    /// structure, dense LU) or "sparse" (structured Jacobian, sparse LU).
+    pub linear_algebra: &'static str,
+    /// Model evaluations per Jacobian (one per column for plain differences,
+    /// one per column group plus one with the structure).
+    pub evaluations_per_jacobian: usize,
     /// Initial values chosen by the rest state (`"initial": "rest"`), if any.
     pub rest: crate::rest::RestReport,
     /// Where the moving masses and chamber pressures ended.
@@ -248,6 +261,9 @@ pub enum SolveError {
 struct System<'a> {
     model: &'a mut Model,
     error: Option<ModelError>,
+    /// The Jacobian's structure, when it pays (see [`crate::jacobian`]).
+    structure: Option<&'a Structure>,
+    jacobian_work: &'a mut Workspace,
 }
 
 impl System<'_> {
@@ -307,6 +323,37 @@ impl OdeSystem for System<'_> {
         // the convention of every root of the model (see `model.rs`)
         out.fill(RootDirection::Rising);
     }
+    fn jacobian_sparsity(&self) -> Option<ode::Sparsity> {
+        self.structure.map(|s| s.pattern().clone())
+    }
+    fn jacobian(&mut self, t: f64, y: &[f64], _f0: &[f64], deltas: &[f64], values: &mut [f64]) -> Result<bool, RhsError> {
+        let Some(structure) = self.structure else { return Ok(false) };
+        match structure.fill(self.model, self.jacobian_work, t, y, deltas, values) {
+            Ok(()) => {
+                self.error = None;
+                Ok(true)
+            }
+            Err(e @ (ModelError::NonPhysical { .. } | ModelError::NonFinite { .. })) => {
+                self.error = Some(e);
+                values.fill(f64::NAN);
+                Ok(true)
+            }
+            Err(e) => {
+                let msg = e.to_string();
+                self.error = Some(e);
+                Err(RhsError(msg))
+            }
+        }
+    }
+}
+
+/// The Jacobian structure of `model` if it saves work over plain differences:
+/// always for systems large enough for the sparse LU, otherwise when it needs
+/// at most half the model evaluations per Jacobian.
+pub(crate) fn worthwhile_structure(model: &Model) -> Option<Structure> {
+    let s = Structure::new(model)?;
+    let ns = model.n_states;
+    (ns >= ode::SPARSE_LU_MIN_STATES || 2 * s.evaluations_per_jacobian() <= ns).then_some(s)
 }
 
 /// Where an observed run is when it calls its observer.
@@ -358,9 +405,20 @@ fn run(model: &mut Model, opts: &SimOptions, mut observer: Option<&mut dyn FnMut
     for a in atol[n - model.n_quadratures()..].iter_mut() {
         *a = 1e30; // quadratures (balances, statistics) do not steer the step size
     }
-    let options =
-        Options { rtol: opts.rtol, atol, h_init: None, h_max: opts.max_step, h_min: 1e-14, max_steps: 50_000_000, root_tol: 1e-12 };
+    let options = Options {
+        rtol: opts.rtol,
+        atol,
+        h_init: None,
+        h_max: opts.max_step,
+        h_min: 1e-14,
+        max_steps: 50_000_000,
+        root_tol: 1e-12,
+        event_window: 0.0,
+        event_window_per_step: opts.rtol,
+    };
     let mut integrator = Rosenbrock::with_method(options, n, opts.method);
+    let structure = if opts.structured_jacobian { worthwhile_structure(model) } else { None };
+    let mut jacobian_work = Workspace::default();
     let mut t = 0.0;
     let mut result = SimResult {
         columns: model.output_names(),
@@ -373,6 +431,8 @@ fn run(model: &mut Model, opts: &SimOptions, mut observer: Option<&mut dyn FnMut
         t_final: 0.0,
         stats: Default::default(),
         rhs_evaluations: 0,
+        linear_algebra: "dense",
+        evaluations_per_jacobian: structure.as_ref().map_or(model.n_states + 1, |s| s.evaluations_per_jacobian()),
         rest,
         final_state: FinalState::default(),
         stroke_statistics: Vec::new(),
@@ -411,7 +471,7 @@ fn run(model: &mut Model, opts: &SimOptions, mut observer: Option<&mut dyn FnMut
         let observing = observer.is_some();
         step_ends.clear();
         let advance = {
-            let mut sys = System { model, error: None };
+            let mut sys = System { model, error: None, structure: structure.as_ref(), jacobian_work: &mut jacobian_work };
             let interval = opts.sample_interval;
             let record_steps = opts.record_steps && interval <= 0.0;
             let mut dense_observer = |d: &dyn Dense| {
@@ -520,6 +580,7 @@ fn run(model: &mut Model, opts: &SimOptions, mut observer: Option<&mut dyn FnMut
     result.stroke_statistics = stroke_statistics(model, &result.cycles, &snapshots);
     result.t_final = t;
     result.stats = integrator.stats();
+    result.linear_algebra = integrator.linear_algebra();
     result.rhs_evaluations = model.evaluations;
     Ok(result)
 }
@@ -558,7 +619,7 @@ fn checkpoint(
     roots: &mut [f64],
     observer: &mut dyn FnMut(&Checkpoint),
 ) -> Result<(), SolveError> {
-    model.eval_detached(t, y, Some(roots))?;
+    model.eval_detached(t, y, None, Some(roots))?;
     observer(&Checkpoint { t, kind, y, roots, model });
     Ok(())
 }
