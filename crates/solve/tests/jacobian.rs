@@ -12,58 +12,13 @@
 //! plain quotient too (the pattern is a superset of the true structure).
 
 mod common;
+#[path = "common/drives.rs"]
+mod drives;
 
 use common::*;
-use serde_json::{json, Value};
+use drives::drives;
 use solve::jacobian::{Structure, Workspace};
 use solve::{Model, SimOptions};
-
-/// `n` meter-out drives (5/2 valve, speed-control valve, cylinder, cycler)
-/// on one supply line and manifold: the circuit of docs/performance.md's
-/// scaling study. Each drive has its own cycler with a different stroke, so
-/// that the drives fall out of step.
-fn drives(n: usize) -> graph::FlatNetlist {
-    let cylinder = models_dir().join("lib/cylinder.json");
-    let mut components = vec![
-        json!({"id": "supply", "type": "pressure_source", "params": {"p": "6 bar", "T": "292 K"}}),
-        json!({"id": "line", "type": "conductance", "params": {"C": "2000 L/min/bar", "b": 0.3}}),
-        json!({"id": "manifold", "type": "chamber", "params": {"dead_volume": "2 L", "T_wall": "292 K"}}),
-        json!({"id": "exhaust", "type": "atmosphere", "params": {"p": "0.98 bar", "T": "292 K"}}),
-    ];
-    let mut connections = vec![json!(["supply.port", "line.a"]), json!(["line.b", "manifold.port"])];
-    for i in 0..n {
-        let d = format!("d{i}");
-        let stroke = format!("{} mm", 450 - 20 * i);
-        components.extend([
-            json!({"id": format!("{d}_dcv"), "type": "valve_5_2", "params": {"C": "490 L/min/bar", "b": 0.3}}),
-            json!({"id": format!("{d}_fc"), "type": "speed_control_valve",
-                   "params": {"C": "13.2 L/min/bar", "b": 0.3, "check_C": "490 L/min/bar", "check_b": 0.3}}),
-            json!({"id": format!("{d}_cyl"), "type": "subsystem", "file": cylinder.to_str().unwrap()}),
-            json!({"id": format!("{d}_ctl"), "type": "cycler", "params": {"stroke": stroke}}),
-        ]);
-        connections.extend([
-            json!(["manifold.port", format!("{d}_dcv.P")]),
-            json!([format!("{d}_dcv.A"), format!("{d}_cyl.head_port")]),
-            json!([format!("{d}_dcv.B"), format!("{d}_fc.a")]),
-            json!([format!("{d}_fc.b"), format!("{d}_cyl.rod_port")]),
-            json!([format!("{d}_dcv.EA"), "exhaust.port"]),
-            json!([format!("{d}_dcv.EB"), "exhaust.port"]),
-            json!({"from": format!("{d}_cyl.x"), "to": format!("{d}_ctl.x")}),
-            json!({"from": format!("{d}_ctl.command"), "to": format!("{d}_dcv.command")}),
-        ]);
-    }
-    let net: Value = json!({
-        "name": format!("drives_{n}"), "components": components, "connections": connections,
-        "simulation": {"t_end": "3 s", "rtol": 1e-4, "atol": 1e-4, "max_step": "250 ms", "initial": "rest"}
-    });
-    let dir = std::env::temp_dir().join(format!("pneumo-jacobian-{}-{n}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    let file = dir.join("drives.json");
-    std::fs::write(&file, serde_json::to_string_pretty(&net).unwrap()).unwrap();
-    let flat = graph::load(&FsLoader, &file).unwrap_or_else(|e| panic!("load: {e}"));
-    let _ = std::fs::remove_dir_all(&dir);
-    flat
-}
 
 fn model_of(flat: &graph::FlatNetlist) -> (Model, SimOptions) {
     let circuit = graph::build(flat).unwrap_or_else(|e| panic!("build: {e}"));
@@ -150,7 +105,7 @@ fn structured_jacobian_equals_plain_differences_on_the_meter_out_circuit() {
 
 #[test]
 fn structured_jacobian_equals_plain_differences_on_four_drives() {
-    let flat = drives(4);
+    let flat = drives(4, true);
     let (model, _) = model_of(&flat);
     let s = Structure::new(&model).unwrap();
     // four independent drives share one manifold: far fewer groups than columns
@@ -169,8 +124,8 @@ fn structured_jacobian_equals_plain_differences_on_four_drives() {
 /// per Jacobian stay bounded while the states grow linearly.
 #[test]
 fn evaluations_per_jacobian_do_not_grow_with_the_circuit() {
-    let small = model_of(&drives(2)).0;
-    let large = model_of(&drives(12)).0;
+    let small = model_of(&drives(2, true)).0;
+    let large = model_of(&drives(12, true)).0;
     let (es, el) = (Structure::new(&small).unwrap().evaluations_per_jacobian(), Structure::new(&large).unwrap().evaluations_per_jacobian());
     assert!(large.n_states >= 5 * small.n_states, "{} vs {}", large.n_states, small.n_states);
     assert!(el <= es + 2, "evaluations per Jacobian grew from {es} to {el}");
@@ -182,7 +137,7 @@ fn evaluations_per_jacobian_do_not_grow_with_the_circuit() {
 /// structured (or, when large, sparse) linear algebra.
 #[test]
 fn runs_with_and_without_the_structure_agree() {
-    for (label, flat, expect) in [("drives(3)", drives(3), "structured"), ("drives(12)", drives(12), "sparse")] {
+    for (label, flat, expect) in [("drives(3)", drives(3, true), "structured"), ("drives(12)", drives(12, true), "sparse")] {
         let (mut m1, opts) = model_of(&flat);
         let with = solve::simulate(&mut m1, &opts).unwrap();
         let (mut m2, mut plain_opts) = model_of(&flat);

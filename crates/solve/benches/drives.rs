@@ -1,0 +1,60 @@
+//! Benchmark: how the cost of a simulation grows with the circuit.
+//!
+//! `n` meter-out drives (5/2 valve, speed-control valve, cylinder, cycler)
+//! on one supply line and manifold, n = 1 … 64, simulated for 3 s from rest
+//! at rtol = atol = 1e-4, with the Jacobian from the circuit's structure
+//! (and, above 40 states, the sparse LU), and for n ≤ 16 also with plain
+//! finite differences and a dense LU, the way the integrator worked before.
+//! The drives have staggered strokes (their events fall at different
+//! instants, as on a real machine); from n = 16 the same circuit with all
+//! drives alike (switching together) is run as well, to separate the cost of
+//! the linear algebra from the cost of the events.
+//! docs/performance.md lists the medians and the fitted exponent k of
+//! time ∝ n^k. Run: `cargo bench -p pneumo-solve --bench drives`.
+
+use criterion::{criterion_group, criterion_main, BatchSize, Criterion, Throughput};
+
+#[path = "../tests/common/drives.rs"]
+mod drives;
+
+fn build(n: usize, structured: bool, staggered: bool) -> (solve::Model, solve::SimOptions) {
+    let circuit = graph::build(&drives::drives(n, staggered)).expect("the drives circuit builds");
+    let mut opts = solve::options_from(&circuit.simulation).expect("settings");
+    opts.sample_interval = 0.0;
+    opts.structured_jacobian = structured;
+    (solve::Model::new(circuit), opts)
+}
+
+fn bench(c: &mut Criterion) {
+    let mut group = c.benchmark_group("drives");
+    group.sample_size(10);
+    for n in [1usize, 2, 4, 8, 16, 32, 64] {
+        group.throughput(Throughput::Elements(n as u64));
+        let mut variants = vec![(true, true, "structured")];
+        if n <= 16 {
+            variants.push((false, true, "dense"));
+        }
+        if n >= 16 {
+            variants.push((true, false, "structured_in_step"));
+        }
+        for (structured, staggered, label) in variants {
+            group.bench_function(format!("{label}_{n}"), |b| {
+                b.iter_batched(
+                    || build(n, structured, staggered),
+                    |(mut model, opts)| {
+                        // (with many drives in step the shared supply line sags and
+                        // the first cycle may not end within 3 s: no cycle count is
+                        // asserted)
+                        let r = solve::simulate(&mut model, &opts).expect("simulates");
+                        r.t_final
+                    },
+                    BatchSize::SmallInput,
+                )
+            });
+        }
+    }
+    group.finish();
+}
+
+criterion_group!(benches, bench);
+criterion_main!(benches);
