@@ -648,6 +648,7 @@ pub fn simulate_discharge_thermal(
         sample_interval: t_end / 4000.0,
         max_step: t_end / 50.0,
         max_events: 1000,
+        cancel: None,
     };
     let result = solve::simulate(&mut model, &opts).map_err(|e| e.to_string())?;
     let p = result.series("tank.p").ok_or("no tank.p in the results")?;

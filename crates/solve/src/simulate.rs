@@ -15,6 +15,35 @@ use crate::mechanics::{self, Mode};
 use crate::model::{Model, ModelError, N_QUADRATURE};
 use blocks::block::{CycleRecord, EventKind, MechState};
 use ode::{Advance, Dense, Integrator, IntegratorError, OdeSystem, Options, RhsError, RootDirection, Rosenbrock};
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::Arc;
+
+/// A request to stop runs early, shared between the runs and whoever may
+/// cancel them (Ctrl-C in the Python package). Clones share one flag; a run
+/// given one in [`SimOptions::cancel`] looks at it at every evaluation of the
+/// right-hand side and between events, and ends with [`SolveError::Cancelled`].
+#[derive(Debug, Clone, Default)]
+pub struct Cancel(Arc<AtomicBool>);
+
+impl Cancel {
+    pub fn new() -> Self {
+        Self::default()
+    }
+    /// Ask every run holding this flag (or a clone of it) to stop.
+    pub fn cancel(&self) {
+        self.0.store(true, Ordering::Relaxed);
+    }
+    pub fn is_cancelled(&self) -> bool {
+        self.0.load(Ordering::Relaxed)
+    }
+}
+
+/// Two flags are equal when they are the same flag.
+impl PartialEq for Cancel {
+    fn eq(&self, other: &Self) -> bool {
+        Arc::ptr_eq(&self.0, &other.0)
+    }
+}
 
 /// Settings of one run, in SI.
 #[derive(Debug, Clone, PartialEq)]
@@ -32,11 +61,13 @@ pub struct SimOptions {
     pub max_step: f64,
     /// Safety limit on the number of discrete events.
     pub max_events: usize,
+    /// Stop early when this flag is raised (see [`Cancel`]).
+    pub cancel: Option<Cancel>,
 }
 
 impl Default for SimOptions {
     fn default() -> Self {
-        SimOptions { t_end: 10.0, cycles: None, rtol: 1e-6, atol: 1e-6, sample_interval: 1e-3, max_step: 0.05, max_events: 100_000 }
+        SimOptions { t_end: 10.0, cycles: None, rtol: 1e-6, atol: 1e-6, sample_interval: 1e-3, max_step: 0.05, max_events: 100_000, cancel: None }
     }
 }
 
@@ -226,12 +257,15 @@ pub enum SolveError {
     Settings(String),
     #[error("{0}")]
     Rest(#[from] crate::rest::RestError),
+    #[error("cancelled at t = {t} s")]
+    Cancelled { t: f64 },
 }
 
 /// The model seen by the integrator.
 struct System<'a> {
     model: &'a mut Model,
     error: Option<ModelError>,
+    cancel: Option<&'a Cancel>,
 }
 
 impl OdeSystem for System<'_> {
@@ -239,6 +273,9 @@ impl OdeSystem for System<'_> {
         self.model.dim()
     }
     fn rhs(&mut self, t: f64, y: &[f64], dydt: &mut [f64]) -> Result<(), RhsError> {
+        if self.cancel.is_some_and(Cancel::is_cancelled) {
+            return Err(RhsError("cancelled".into()));
+        }
         match self.model.eval(t, y, Some(dydt), None) {
             Ok(()) => {
                 self.error = None;
@@ -379,13 +416,16 @@ fn run(model: &mut Model, opts: &SimOptions, mut observer: Option<&mut dyn FnMut
     let mut finished = false;
     let mut step_ends: Vec<(f64, Vec<f64>)> = Vec::new();
     while !finished {
+        if opts.cancel.as_ref().is_some_and(Cancel::is_cancelled) {
+            return Err(SolveError::Cancelled { t });
+        }
         let t_time_event = model.circuit.instances.iter().filter_map(|i| i.block.next_time_event(t)).fold(f64::INFINITY, f64::min);
         let t_stop = opts.t_end.min(t_time_event);
         let mut samples: Vec<(f64, Vec<f64>)> = Vec::new();
         let observing = observer.is_some();
         step_ends.clear();
         let advance = {
-            let mut sys = System { model, error: None };
+            let mut sys = System { model, error: None, cancel: opts.cancel.as_ref() };
             let interval = opts.sample_interval;
             let mut dense_observer = |d: &dyn Dense| {
                 if observing {
@@ -408,6 +448,7 @@ fn run(model: &mut Model, opts: &SimOptions, mut observer: Option<&mut dyn FnMut
             let r = integrator.advance(&mut sys, &mut t, &mut y, t_stop, &mut dense_observer);
             match (r, sys.error.take()) {
                 (Ok(a), _) => a,
+                (Err(_), _) if opts.cancel.as_ref().is_some_and(Cancel::is_cancelled) => return Err(SolveError::Cancelled { t }),
                 (Err(_), Some(model_error)) => return Err(model_error.into()),
                 (Err(e), None) => return Err(e.into()),
             }
