@@ -1,8 +1,22 @@
 //! Turning the netlist's simulation settings (with units) into [`SimOptions`].
 
-use crate::simulate::{SimOptions, SolveError};
+use crate::simulate::{Cancel, SimOptions, SolveError};
 use graph::netlist::{Simulation, Value};
+use std::cell::RefCell;
 use units::dim;
+
+thread_local! {
+    static THREAD_CANCEL: RefCell<Option<Cancel>> = const { RefCell::new(None) };
+}
+
+/// Give every [`SimOptions`] that [`options_from`] makes on this thread the
+/// cancellation flag `cancel` (or none). For runs started by code that builds
+/// its own options, such as the `identify` workflow, on threads the caller
+/// owns (the Python package sets it on the threads of a pool it creates for
+/// one analysis, so that Ctrl-C stops every simulation of that analysis).
+pub fn set_thread_cancel(cancel: Option<Cancel>) {
+    THREAD_CANCEL.with(|c| *c.borrow_mut() = cancel);
+}
 
 fn seconds(v: &Option<Value>, name: &str, default: f64) -> Result<f64, SolveError> {
     match v {
@@ -35,5 +49,5 @@ pub fn options_from(sim: &Simulation) -> Result<SimOptions, SolveError> {
     if !(sim.rtol > 0.0 && sim.rtol < 0.1 && sim.atol > 0.0 && sim.atol < 1.0) {
         return Err(SolveError::Settings(format!("tolerances out of range: rtol {} (0..0.1), atol {} (0..1)", sim.rtol, sim.atol)));
     }
-    Ok(SimOptions { t_end, cycles, rtol: sim.rtol, atol: sim.atol, sample_interval, max_step, max_events: 100_000, cancel: None })
+    Ok(SimOptions { t_end, cycles, rtol: sim.rtol, atol: sim.atol, sample_interval, max_step, max_events: 100_000, cancel: THREAD_CANCEL.with(|c| c.borrow().clone()) })
 }

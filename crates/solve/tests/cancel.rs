@@ -1,7 +1,8 @@
 //! Cancelling a run (`SimOptions::cancel`): a raised flag stops the run with
 //! `SolveError::Cancelled` at the simulated time it had reached, from before
 //! the first step or from another thread in the middle of a long run; a flag
-//! that is never raised changes nothing.
+//! that is never raised changes nothing; a flag set for a thread
+//! (`settings::set_thread_cancel`) reaches the options made on that thread.
 
 mod common;
 
@@ -65,4 +66,19 @@ fn a_flag_never_raised_changes_nothing() {
     assert_eq!(plain.rows, flagged.rows);
     assert_eq!(plain.cycles.len(), 1);
     assert_eq!(plain.cycles[0].total, flagged.cycles[0].total);
+}
+
+#[test]
+fn a_flag_set_for_the_thread_reaches_options_made_on_it_only() {
+    let flat = flat_from_model("meter_out.json", &[]);
+    let circuit = graph::build(&flat).expect("build");
+    let cancel = Cancel::new();
+    solve::settings::set_thread_cancel(Some(cancel.clone()));
+    let here = solve::options_from(&circuit.simulation).expect("settings");
+    let elsewhere = std::thread::scope(|s| s.spawn(|| solve::options_from(&circuit.simulation).expect("settings")).join().expect("thread"));
+    solve::settings::set_thread_cancel(None);
+    let after = solve::options_from(&circuit.simulation).expect("settings");
+    assert_eq!(here.cancel, Some(cancel));
+    assert_eq!(elsewhere.cancel, None);
+    assert_eq!(after.cancel, None);
 }
