@@ -13,6 +13,9 @@ use pneumo_cli::CliError;
 use pyo3::prelude::*;
 use std::path::PathBuf;
 
+/// `(name, value, SI unit, how it came about)` of one parameter.
+type ParameterRow = (String, Py<PyAny>, String, String);
+
 #[pyclass(module = "pneumo._pneumo", frozen)]
 pub struct Netlist {
     pub source: Source,
@@ -22,15 +25,35 @@ pub struct Netlist {
     pub sets: Vec<String>,
     /// `base` with `sets` applied.
     pub flat: FlatNetlist,
+    /// Names set from Python numbers, which are SI by definition: the
+    /// command line's warning about plain numbers is not given for them
+    /// ("*": for every value, in a netlist pneumo wrote in SI).
+    pub si_numbers: Vec<String>,
 }
 
 impl Netlist {
-    fn new(base: FlatNetlist, source: Source, sets: Vec<String>) -> Result<Self, CliError> {
+    fn new(base: FlatNetlist, source: Source, sets: Vec<String>, si_numbers: Vec<String>) -> Result<Self, CliError> {
         let mut flat = base.clone();
         for s in &sets {
             graph::apply_set(&mut flat, s)?;
         }
-        Ok(Netlist { source, base, sets, flat })
+        if !sets.is_empty() {
+            // a wrong value is reported where it is set, with the message a run would give
+            graph::resolve(&flat)?;
+        }
+        Ok(Netlist { source, base, sets, flat, si_numbers })
+    }
+
+    /// The warnings worth showing: all but those about numbers given in SI on purpose.
+    pub fn shown_warnings(&self, warnings: &[graph::Warning]) -> Vec<String> {
+        warnings
+            .iter()
+            .filter(|w| {
+                let plain_si = w.message.contains(" (SI)");
+                !(plain_si && self.si_numbers.iter().any(|n| n == "*" || w.message.starts_with(&format!("{n} = "))))
+            })
+            .map(|w| graph::escape(&w.to_string()))
+            .collect()
     }
 }
 
@@ -49,36 +72,43 @@ impl Netlist {
     #[staticmethod]
     fn load(py: Python<'_>, path: PathBuf) -> PyResult<Self> {
         let (flat, source) = Source::read(&path).py_err(py)?;
-        Netlist::new(flat, source, Vec::new()).py_err(py)
+        Netlist::new(flat, source, Vec::new(), Vec::new()).py_err(py)
     }
 
     /// A netlist given as JSON text, named `name` in messages; subsystem
-    /// files are read relative to `name`'s folder.
+    /// files are read relative to `name`'s folder. `written_in_si`: a
+    /// netlist pneumo wrote with plain SI numbers (no warnings about them).
     #[staticmethod]
-    #[pyo3(signature = (text, name = PathBuf::from("<string>.json")))]
-    fn from_text(py: Python<'_>, text: &str, name: PathBuf) -> PyResult<Self> {
+    #[pyo3(signature = (text, name = PathBuf::from("<string>.json"), written_in_si = false))]
+    fn from_text(py: Python<'_>, text: &str, name: PathBuf, written_in_si: bool) -> PyResult<Self> {
         let (flat, source) = Source::from_text(text, &name).py_err(py)?;
-        Netlist::new(flat, source, Vec::new()).py_err(py)
+        let si = if written_in_si { vec!["*".to_string()] } else { Vec::new() };
+        Netlist::new(flat, source, Vec::new(), si).py_err(py)
     }
 
     /// Rebuild from [`Netlist::state`] (reads no file).
     #[staticmethod]
-    fn from_state(py: Python<'_>, path: PathBuf, files: Vec<(PathBuf, String)>, sets: Vec<String>) -> PyResult<Self> {
+    #[pyo3(signature = (path, files, sets, si_numbers = Vec::new()))]
+    fn from_state(py: Python<'_>, path: PathBuf, files: Vec<(PathBuf, String)>, sets: Vec<String>, si_numbers: Vec<String>) -> PyResult<Self> {
         let source = Source { path, files };
         let flat = source.load().py_err(py)?;
-        Netlist::new(flat, source, sets).py_err(py)
+        Netlist::new(flat, source, sets, si_numbers).py_err(py)
     }
 
-    /// `(path, [(file, text), ...], sets)`: everything needed to rebuild it.
-    fn state(&self) -> (PathBuf, Vec<(PathBuf, String)>, Vec<String>) {
-        (self.source.path.clone(), self.source.files.clone(), self.sets.clone())
+    /// `(path, [(file, text), ...], sets, si_numbers)`: everything needed to rebuild it.
+    fn state(&self) -> (PathBuf, Vec<(PathBuf, String)>, Vec<String>, Vec<String>) {
+        (self.source.path.clone(), self.source.files.clone(), self.sets.clone(), self.si_numbers.clone())
     }
 
-    /// A new netlist with these overrides added after the present ones.
-    fn with_sets(&self, py: Python<'_>, sets: Vec<String>) -> PyResult<Self> {
+    /// A new netlist with these overrides added after the present ones;
+    /// `si_numbers` names those given as Python numbers.
+    #[pyo3(signature = (sets, si_numbers = Vec::new()))]
+    fn with_sets(&self, py: Python<'_>, sets: Vec<String>, si_numbers: Vec<String>) -> PyResult<Self> {
         let mut all = self.sets.clone();
         all.extend(sets);
-        Netlist::new(self.base.clone(), self.source.clone(), all).py_err(py)
+        let mut si = self.si_numbers.clone();
+        si.extend(si_numbers);
+        Netlist::new(self.base.clone(), self.source.clone(), all, si).py_err(py)
     }
 
     /// The netlist's own name (its "name" field, or the file name).
@@ -114,7 +144,7 @@ impl Netlist {
     /// overrides: named parameters, block parameters and initial values in SI
     /// (unit its SI symbol), choices and lists as text, the gas. `how` is
     /// "parameter", "written", "derived" or "default".
-    fn parameters(&self, py: Python<'_>) -> PyResult<Vec<(String, Py<PyAny>, String, String)>> {
+    fn parameters(&self, py: Python<'_>) -> PyResult<Vec<ParameterRow>> {
         let resolved = graph::resolve(&self.flat).map_err(|e| crate::errors::to_py(py, &e.into()))?;
         let cells = pneumo_cli::sweep::netlist_parameters(&self.flat);
         Ok(cells
@@ -148,8 +178,7 @@ impl Netlist {
     /// parameters, rest state) and the warnings it gives.
     fn check(&self, py: Python<'_>) -> PyResult<(String, Vec<String>)> {
         let mut warnings = Vec::new();
-        let checked =
-            pneumo_cli::check::check(&self.flat, &mut |w| warnings.extend(w.iter().map(|w| graph::escape(&w.to_string())))).py_err(py)?;
+        let checked = pneumo_cli::check::check(&self.flat, &mut |w| warnings.extend(self.shown_warnings(w))).py_err(py)?;
         Ok((checked.text, warnings))
     }
 
@@ -175,7 +204,7 @@ impl Netlist {
         let flat = self.flat.clone();
         let outcome = crate::interrupt::run(py, &cancel, move || -> Result<_, CliError> {
             let prepared = prepare(flat, &spec)?;
-            let warnings: Vec<String> = prepared.warnings.iter().map(|w| graph::escape(&w.to_string())).collect();
+            let warnings = self.shown_warnings(&prepared.warnings);
             Ok((execute(prepared)?, warnings))
         })?;
         let (run, warnings) = outcome.py_err(py)?;

@@ -12,6 +12,7 @@ use crate::errors::IntoPy;
 use crate::model::Netlist;
 use pneumo_cli::sweep::{Cell, Outcome, Plan, Study, Table};
 use pyo3::prelude::*;
+use pyo3::types::PyBytes;
 
 /// A parameter value or table cell: a float, a word, or None.
 #[derive(FromPyObject, IntoPyObject, Clone)]
@@ -107,9 +108,12 @@ impl SweepPlan {
         self.plan.case_assignments(index)
     }
 
-    /// Run these cases on `jobs` threads (GIL released; Ctrl-C stops them and
-    /// raises KeyboardInterrupt).
-    fn run(&self, py: Python<'_>, indices: Vec<usize>, jobs: usize) -> PyResult<Vec<PyOutcome>> {
+    /// Run these cases on `jobs` threads (default: the available
+    /// parallelism, as `pneumo sweep`), GIL released; Ctrl-C stops them and
+    /// raises KeyboardInterrupt.
+    #[pyo3(signature = (indices, jobs = None))]
+    fn run(&self, py: Python<'_>, indices: Vec<usize>, jobs: Option<usize>) -> PyResult<Vec<PyOutcome>> {
+        let jobs = jobs.unwrap_or_else(|| std::thread::available_parallelism().map(|n| n.get()).unwrap_or(1));
         let cancel = solve::Cancel::new();
         let outcomes = crate::interrupt::run(py, &cancel, || self.plan.run_cases(&indices, jobs, Some(&cancel), &|| {}))?.py_err(py)?;
         Ok(outcomes.into_iter().map(to_py_outcome).collect())
@@ -128,13 +132,14 @@ impl SweepPlan {
     }
 
     /// The bytes `pneumo sweep --out FILE.csv` writes for these outcomes.
-    fn csv(&self, py: Python<'_>, outcomes: Vec<PyOutcome>) -> PyResult<Vec<u8>> {
-        pneumo_cli::sweep::to_csv(&self.table(outcomes)).py_err(py)
+    fn csv<'py>(&self, py: Python<'py>, outcomes: Vec<PyOutcome>) -> PyResult<Bound<'py, PyBytes>> {
+        let bytes = pneumo_cli::sweep::to_csv(&self.table(outcomes)).py_err(py)?;
+        Ok(PyBytes::new(py, &bytes))
     }
 
     /// The bytes `pneumo sweep --out FILE.json` writes for these outcomes.
-    fn json(&self, outcomes: Vec<PyOutcome>) -> Vec<u8> {
-        pneumo_cli::sweep::to_json(&self.table(outcomes))
+    fn json<'py>(&self, py: Python<'py>, outcomes: Vec<PyOutcome>) -> Bound<'py, PyBytes> {
+        PyBytes::new(py, &pneumo_cli::sweep::to_json(&self.table(outcomes)))
     }
 
     /// The table `pneumo sweep` prints: values as written, cycle time, status.
