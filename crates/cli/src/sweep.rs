@@ -210,8 +210,7 @@ fn check_axis(shown: &str, target: &str, texts: &[String]) -> Result<(), CliErro
 
 /// Split "ID.PARAM=V1, V2, ..." into the target and the trimmed values.
 fn parse_vary(s: &str) -> Result<(String, Vec<String>), CliError> {
-    let (target, list) =
-        s.split_once('=').ok_or_else(|| CliError::Usage(format!("--vary \"{s}\": expected ID.PARAM=V1,V2,...")))?;
+    let (target, list) = s.split_once('=').ok_or_else(|| CliError::Usage(format!("--vary \"{s}\": expected ID.PARAM=V1,V2,...")))?;
     let target = target.trim();
     let texts: Vec<String> = list.split(',').map(|v| v.trim().to_string()).collect();
     check_axis(s, target, &texts)?;
@@ -1267,8 +1266,12 @@ mod tests {
         let mut sharded = study(vec![("supply.p", vec!["4 bar"])]);
         sharded.shard = Some((3, 2));
         assert!(err(sharded).contains("--shard"));
-        let plan = Plan::new(flat.clone(), &source, &study(vec![("supply.p", vec!["4 bar", "5 bar", "6 bar"]), ("piston.mass", vec!["1 kg", "2 kg"])]))
-            .unwrap();
+        let plan = Plan::new(
+            flat.clone(),
+            &source,
+            &study(vec![("supply.p", vec!["4 bar", "5 bar", "6 bar"]), ("piston.mass", vec!["1 kg", "2 kg"])]),
+        )
+        .unwrap();
         assert_eq!(plan.n_cases(), 6);
         assert_eq!(plan.case_assignments(3), vec!["supply.p=5 bar", "piston.mass=2 kg"]);
         assert_eq!(plan.temperature_columns(), ["head.T", "rod.T"]);

@@ -49,13 +49,19 @@ pub fn run<T: Send>(py: Python<'_>, cancel: &Cancel, work: impl FnOnce() -> T + 
     match outcome {
         (Some(signal), _) => Err(signal),
         (None, Ok(Ok(value))) => Ok(value),
-        (None, Ok(Err(panic)) | Err(panic)) => Err(crate::errors::exception(py, "PneumoError", &format!("internal error: {}", panic_text(&panic)))),
+        (None, Ok(Err(panic)) | Err(panic)) => {
+            Err(crate::errors::exception(py, "PneumoError", &format!("internal error: {}", panic_text(&panic))))
+        }
     }
 }
 
 /// The message of a panic payload.
 pub fn panic_text(payload: &Box<dyn std::any::Any + Send>) -> String {
-    payload.downcast_ref::<&str>().map(|s| s.to_string()).or_else(|| payload.downcast_ref::<String>().cloned()).unwrap_or_else(|| "a panic".into())
+    payload
+        .downcast_ref::<&str>()
+        .map(|s| s.to_string())
+        .or_else(|| payload.downcast_ref::<String>().cloned())
+        .unwrap_or_else(|| "a panic".into())
 }
 
 /// Run `work` with the GIL released on this thread (no Ctrl-C polling: for

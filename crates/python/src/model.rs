@@ -13,6 +13,9 @@ use pneumo_cli::CliError;
 use pyo3::prelude::*;
 use std::path::PathBuf;
 
+/// `(path, [(file, text), ...], sets, si_numbers)`: a netlist, to rebuild anywhere.
+type State = (PathBuf, Vec<(PathBuf, String)>, Vec<String>, Vec<String>);
+
 /// `(name, value, SI unit, how it came about)` of one parameter.
 type ParameterRow = (String, Py<PyAny>, String, String);
 
@@ -89,14 +92,20 @@ impl Netlist {
     /// Rebuild from [`Netlist::state`] (reads no file).
     #[staticmethod]
     #[pyo3(signature = (path, files, sets, si_numbers = Vec::new()))]
-    fn from_state(py: Python<'_>, path: PathBuf, files: Vec<(PathBuf, String)>, sets: Vec<String>, si_numbers: Vec<String>) -> PyResult<Self> {
+    fn from_state(
+        py: Python<'_>,
+        path: PathBuf,
+        files: Vec<(PathBuf, String)>,
+        sets: Vec<String>,
+        si_numbers: Vec<String>,
+    ) -> PyResult<Self> {
         let source = Source { path, files };
         let flat = source.load().py_err(py)?;
         Netlist::new(flat, source, sets, si_numbers).py_err(py)
     }
 
     /// `(path, [(file, text), ...], sets, si_numbers)`: everything needed to rebuild it.
-    fn state(&self) -> (PathBuf, Vec<(PathBuf, String)>, Vec<String>, Vec<String>) {
+    fn state(&self) -> State {
         (self.source.path.clone(), self.source.files.clone(), self.sets.clone(), self.si_numbers.clone())
     }
 
@@ -191,7 +200,8 @@ impl Netlist {
     /// The netlist with its overrides written in, as one runnable JSON file
     /// (subsystems expanded).
     fn to_json(&self, py: Python<'_>) -> PyResult<String> {
-        let description = format!("{} with {}", self.source.name(), if self.sets.is_empty() { "no overrides".into() } else { self.sets.join("; ") });
+        let description =
+            format!("{} with {}", self.source.name(), if self.sets.is_empty() { "no overrides".into() } else { self.sets.join("; ") });
         pneumo_cli::discrepancy::netlist_json(&self.flat, description).py_err(py)
     }
 

@@ -67,7 +67,16 @@ pub struct SimOptions {
 
 impl Default for SimOptions {
     fn default() -> Self {
-        SimOptions { t_end: 10.0, cycles: None, rtol: 1e-6, atol: 1e-6, sample_interval: 1e-3, max_step: 0.05, max_events: 100_000, cancel: None }
+        SimOptions {
+            t_end: 10.0,
+            cycles: None,
+            rtol: 1e-6,
+            atol: 1e-6,
+            sample_interval: 1e-3,
+            max_step: 0.05,
+            max_events: 100_000,
+            cancel: None,
+        }
     }
 }
 
