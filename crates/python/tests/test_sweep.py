@@ -110,6 +110,10 @@ def test_numbers_are_si_and_a_single_value_is_one_case(meter_out):
     assert len(by_number) == 1
     cols = [c for c in by_text.columns if c not in ("model", "model_sha256")]
     pd.testing.assert_frame_equal(by_number[cols], by_text[cols], check_exact=True)
+    # numpy arrays and pandas Series are lists of values too
+    arrays = pneumo.sweep(m, vary={"supply.p": np.array([4e5, 5e5]), "piston.mass": pd.Series([2.0])}, cycles=1)
+    np.testing.assert_array_equal(arrays["supply.p"], [4e5, 5e5])
+    assert arrays.loc[0, "cycle_time_s"] == by_number.loc[0, "cycle_time_s"]
 
 
 def test_bad_arguments_raise_the_command_lines_messages(meter_out, cli_message):

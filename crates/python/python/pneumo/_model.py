@@ -38,7 +38,7 @@ def loads(text: str, name: PathLike = "<string>.json") -> "Model":
     return Model(_pneumo.Netlist.from_text(text, os.fspath(name)))
 
 
-def _restore(path: str, files: List[Tuple[str, str]], sets: List[str], si_numbers: List[str] = ()) -> "Model":
+def _restore(path: str, files: List[Tuple[str, str]], sets: List[str], si_numbers: Sequence[str] = ()) -> "Model":
     return Model(_pneumo.Netlist.from_state(path, files, sets, list(si_numbers)))
 
 
@@ -335,5 +335,5 @@ class Result:
 
     def __repr__(self) -> str:
         n = len(self.summary.get("cycles", []))
-        extra = f", incomplete" if self.incomplete else ""
+        extra = ", incomplete" if self.incomplete else ""
         return f"<pneumo.Result {self._raw.model_name!r}: {len(self)} samples to t = {self.t_final:.4g} s, {n} cycles{extra}>"

@@ -14,7 +14,7 @@ import math
 import os
 import tempfile
 import threading
-from typing import TYPE_CHECKING, Any, Dict, List, Mapping, Optional, Sequence, Tuple, Union
+from typing import TYPE_CHECKING, Any, Dict, Iterable, List, Mapping, Optional, Tuple, Union
 
 import numpy as np
 
@@ -50,7 +50,7 @@ def _axes(vary: Mapping[str, Any]) -> List[Tuple[str, List[str]]]:
         raise UsageError("vary: give a mapping of ID.PARAM to a list of values, e.g. {'supply.p': ['4 bar', '7 bar']}")
     axes = []
     for target, values in vary.items():
-        if isinstance(values, (str, bytes)) or not isinstance(values, (Sequence, np.ndarray)):
+        if isinstance(values, (str, bytes, Mapping)) or not isinstance(values, Iterable):
             values = [values]
         texts = [value_text(v, target) for v in values]
         for t in texts:
