@@ -28,7 +28,7 @@
 //!   case ran with: every named parameter and every block parameter and
 //!   initial value (written, derived or default; initial values chosen by the
 //!   rest state as chosen), `gas.model`, `gas.species` and the effective
-//!   `simulation.*` settings.
+//!   `simulation.*` settings (method included).
 //! - Numbers are written in Rust's shortest round-trip form (plain decimal for
 //!   1e-4 ≤ |x| < 1e15, scientific otherwise), so reading a cell back and
 //!   writing it again reproduces the same bytes; `merge` relies on this. JSON
@@ -166,7 +166,7 @@ pub const PARAM_PREFIX: &str = "param:";
 const TEXT_COLUMNS: [&str; 5] = ["error", "model", "model_sha256", "set", "pneumo_version"];
 
 /// Simulation settings recorded for every case (after `--cycles`/`--t-end`).
-const SIMULATION_COLUMNS: [&str; 7] = [
+const SIMULATION_COLUMNS: [&str; 8] = [
     "simulation.t_end",
     "simulation.cycles",
     "simulation.rtol",
@@ -174,6 +174,7 @@ const SIMULATION_COLUMNS: [&str; 7] = [
     "simulation.sample_interval",
     "simulation.max_step",
     "simulation.initial",
+    "simulation.method",
 ];
 
 /// A sweep ready to run: the netlist read once, every `--vary` value
@@ -369,8 +370,8 @@ pub fn netlist_parameters(flat: &FlatNetlist) -> Vec<(String, Cell)> {
 }
 
 /// The settings a case runs with (aligned with [`SIMULATION_COLUMNS`]).
-fn simulation_parameters(opts: &solve::SimOptions, initial: graph::netlist::InitialMode) -> Vec<(String, Cell)> {
-    let initial = match serde_json::to_value(initial) {
+fn simulation_parameters(opts: &solve::SimOptions, simulation: &graph::netlist::Simulation) -> Vec<(String, Cell)> {
+    let word = |v: serde_json::Result<serde_json::Value>| match v {
         Ok(serde_json::Value::String(s)) => Cell::Text(s),
         _ => Cell::Empty,
     };
@@ -381,7 +382,8 @@ fn simulation_parameters(opts: &solve::SimOptions, initial: graph::netlist::Init
         Cell::Num(opts.atol),
         Cell::Num(opts.sample_interval),
         Cell::Num(opts.max_step),
-        initial,
+        word(serde_json::to_value(simulation.initial)),
+        word(serde_json::to_value(simulation.method)),
     ];
     SIMULATION_COLUMNS.iter().map(|s| s.to_string()).zip(values).collect()
 }
@@ -571,13 +573,13 @@ impl Plan {
             }
         };
         put(netlist_parameters(&flat));
-        let initial = flat.simulation.initial;
+        let simulation = flat.simulation.clone();
         let spec = RunSpec { sets: Vec::new(), cycles: self.cycles, t_end: self.t_end, cancel: cancel.cloned() };
         let prepared = match prepare(flat, &spec) {
             Ok(p) => p,
             Err(e) => return failed(e, params),
         };
-        put(simulation_parameters(&prepared.opts, initial));
+        put(simulation_parameters(&prepared.opts, &simulation));
         match execute(prepared) {
             Ok(run) => {
                 let r = &run.result;
@@ -1305,6 +1307,7 @@ mod tests {
         assert_eq!(ok[col("param:gas.model")], Cell::Text("ideal".into()));
         assert_eq!(ok[col("param:simulation.cycles")], Cell::Num(1.0));
         assert_eq!(ok[col("param:simulation.t_end")], Cell::Num(60.0));
+        assert_eq!(ok[col("param:simulation.method")], Cell::Text("rodas4".into()));
         assert_eq!(ok[col("set")], Cell::Text("[\"piston.mass=2 kg\"]".into()));
         assert_eq!(ok[col("model_sha256")], Cell::Text(source.sha256()));
         assert_eq!(ok[col("model")], Cell::Text(source.name()));

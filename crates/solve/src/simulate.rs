@@ -55,12 +55,18 @@ pub struct SimOptions {
     pub rtol: f64,
     /// Absolute tolerance relative to each state's typical size.
     pub atol: f64,
-    /// Output sample interval [s] (0 = only event instants and step ends).
+    /// Output sample interval [s] (0 = no grid: only event instants, and
+    /// step ends if `record_steps`).
     pub sample_interval: f64,
+    /// Record the state at the end of every accepted step (for summaries of
+    /// runs whose traces nobody asked for: far fewer rows than a fine grid).
+    pub record_steps: bool,
     /// Largest step [s].
     pub max_step: f64,
     /// Safety limit on the number of discrete events.
     pub max_events: usize,
+    /// Integration method.
+    pub method: ode::Method,
     /// Stop early when this flag is raised (see [`Cancel`]).
     pub cancel: Option<Cancel>,
 }
@@ -73,8 +79,10 @@ impl Default for SimOptions {
             rtol: 1e-6,
             atol: 1e-6,
             sample_interval: 1e-3,
+            record_steps: false,
             max_step: 0.05,
             max_events: 100_000,
+            method: ode::Method::default(),
             cancel: None,
         }
     }
@@ -277,15 +285,13 @@ struct System<'a> {
     cancel: Option<&'a Cancel>,
 }
 
-impl OdeSystem for System<'_> {
-    fn dim(&self) -> usize {
-        self.model.dim()
-    }
-    fn rhs(&mut self, t: f64, y: &[f64], dydt: &mut [f64]) -> Result<(), RhsError> {
+impl System<'_> {
+    /// One evaluation of the model for f (and the root functions if asked).
+    fn eval_both(&mut self, t: f64, y: &[f64], dydt: &mut [f64], g: Option<&mut [f64]>) -> Result<(), RhsError> {
         if self.cancel.is_some_and(Cancel::is_cancelled) {
             return Err(RhsError("cancelled".into()));
         }
-        match self.model.eval(t, y, Some(dydt), None) {
+        match self.model.eval(t, y, Some(dydt), g) {
             Ok(()) => {
                 self.error = None;
                 Ok(())
@@ -306,6 +312,18 @@ impl OdeSystem for System<'_> {
                 Err(RhsError(msg))
             }
         }
+    }
+}
+
+impl OdeSystem for System<'_> {
+    fn dim(&self) -> usize {
+        self.model.dim()
+    }
+    fn rhs(&mut self, t: f64, y: &[f64], dydt: &mut [f64]) -> Result<(), RhsError> {
+        self.eval_both(t, y, dydt, None)
+    }
+    fn rhs_and_roots(&mut self, t: f64, y: &[f64], dydt: &mut [f64], g: &mut [f64]) -> Result<(), RhsError> {
+        self.eval_both(t, y, dydt, Some(g))
     }
     fn n_quadrature(&self) -> usize {
         self.model.n_quadratures()
@@ -380,7 +398,7 @@ fn run(model: &mut Model, opts: &SimOptions, mut observer: Option<&mut dyn FnMut
     }
     let options =
         Options { rtol: opts.rtol, atol, h_init: None, h_max: opts.max_step, h_min: 1e-14, max_steps: 50_000_000, root_tol: 1e-12 };
-    let mut integrator = Rosenbrock::new(options, n);
+    let mut integrator = Rosenbrock::with_method(options, n, opts.method);
     let mut t = 0.0;
     let mut result = SimResult {
         columns: model.output_names(),
@@ -436,11 +454,17 @@ fn run(model: &mut Model, opts: &SimOptions, mut observer: Option<&mut dyn FnMut
         let advance = {
             let mut sys = System { model, error: None, cancel: opts.cancel.as_ref() };
             let interval = opts.sample_interval;
+            let record_steps = opts.record_steps && interval <= 0.0;
             let mut dense_observer = |d: &dyn Dense| {
-                if observing {
+                if observing || record_steps {
                     let mut ys = vec![0.0; n];
                     d.eval(d.t_end(), &mut ys);
-                    step_ends.push((d.t_end(), ys));
+                    if record_steps {
+                        samples.push((d.t_end(), ys.clone()));
+                    }
+                    if observing {
+                        step_ends.push((d.t_end(), ys));
+                    }
                 }
                 if interval <= 0.0 {
                     return;
