@@ -568,9 +568,21 @@ impl Model {
     }
 
     /// Recorded outputs at (t, y): evaluates the model, then asks every block.
+    /// Like [`Model::eval_detached`] it leaves the junction warm starts as
+    /// they were, so that where a run is sampled does not change the run
+    /// (`simulate --summary` alone, which records only the integrator's
+    /// steps, gives the same cycle times as a run sampled on a grid). The
+    /// evaluation is counted: it is work done.
     pub fn record(&mut self, t: f64, y: &[f64], row: &mut [Option<f64>]) -> Result<(), ModelError> {
         let mut dy = vec![0.0; self.dim()];
-        self.eval(t, y, Some(&mut dy), None)?;
+        let guess = self.junction_guess.clone();
+        let step = self.junction_step.clone();
+        let slope = self.junction_slope.clone();
+        let evaluated = self.eval(t, y, Some(&mut dy), None);
+        self.junction_guess = guess;
+        self.junction_step = step;
+        self.junction_slope = slope;
+        evaluated?;
         for (bi, slot) in self.slots.iter().enumerate() {
             let block = &self.circuit.instances[bi].block;
             let n_sig = slot.sig_out.len();

@@ -59,10 +59,10 @@ pub fn options_from(sim: &Simulation) -> Result<SimOptions, SolveError> {
         rtol: sim.rtol,
         atol: sim.atol,
         sample_interval,
-        record_steps: false,
         max_step,
         max_events: 100_000,
         method,
         cancel: THREAD_CANCEL.with(|c| c.borrow().clone()),
+        ..SimOptions::default()
     })
 }
