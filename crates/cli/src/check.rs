@@ -17,17 +17,20 @@ pub struct CheckArgs {
     pub dot: Option<PathBuf>,
 }
 
-pub fn run(a: &CheckArgs) -> Result<(), CliError> {
-    let (flat, inputs) = crate::load::netlist_with_files(&a.model, &a.sets)?;
-    let inputs: Vec<&std::path::Path> = inputs.iter().map(|p| p.as_path()).collect();
-    let mut outputs = crate::output::Transaction::new(&inputs);
-    if let Some(dot) = &a.dot {
-        outputs.check_targets(&[dot])?;
-    }
-    let circuit = graph::build(&flat)?;
+/// What `pneumo check` finds: the causality and parameter tables and the
+/// rest state (the text it prints) and the circuit as Graphviz.
+pub struct Checked {
+    pub text: String,
+    pub dot: String,
+}
+
+/// Build the circuit of `flat`, check its settings and compute its rest
+/// state; `warn` receives the circuit's warnings as soon as it is built.
+pub fn check(flat: &graph::FlatNetlist, warn: &mut dyn FnMut(&[graph::Warning])) -> Result<Checked, CliError> {
+    let circuit = graph::build(flat)?;
     solve::options_from(&circuit.simulation)?;
-    crate::output::print_warnings(&circuit.warnings);
-    let dot = a.dot.as_ref().map(|_| graph::report::dot(&circuit));
+    warn(&circuit.warnings);
+    let dot = graph::report::dot(&circuit);
     let mut text = graph::report::causality_table(&circuit);
     text.push_str(&graph::report::parameter_table(&circuit));
     let rest = circuit.simulation.initial == graph::netlist::InitialMode::Rest;
@@ -44,11 +47,22 @@ pub fn run(a: &CheckArgs) -> Result<(), CliError> {
             let _ = writeln!(text, "  {:<22} {:<18} {}", format!("{}.{}", v.id, v.param), shown, v.reason);
         }
     }
-    if let (Some(path), Some(dot)) = (&a.dot, dot) {
-        outputs.add(path, dot.as_bytes())?;
+    Ok(Checked { text, dot })
+}
+
+pub fn run(a: &CheckArgs) -> Result<(), CliError> {
+    let (flat, inputs) = crate::load::netlist_with_files(&a.model, &a.sets)?;
+    let inputs: Vec<&std::path::Path> = inputs.iter().map(|p| p.as_path()).collect();
+    let mut outputs = crate::output::Transaction::new(&inputs);
+    if let Some(dot) = &a.dot {
+        outputs.check_targets(&[dot])?;
+    }
+    let checked = check(&flat, &mut |w| crate::output::print_warnings(w))?;
+    if let Some(path) = &a.dot {
+        outputs.add(path, checked.dot.as_bytes())?;
         outputs.commit()?;
     }
-    print!("{text}");
+    print!("{}", checked.text);
     println!("\nok: {} is a valid circuit", a.model.display());
     Ok(())
 }

@@ -52,14 +52,16 @@ pub struct DiscrepancyArgs {
     pub json: bool,
 }
 
-pub fn run(a: &DiscrepancyArgs) -> Result<(), CliError> {
-    let model_path = a
-        .input
-        .as_ref()
-        .ok_or_else(|| CliError::Usage("give the model netlist: pneumo discrepancy MODEL.json --experiments EXPERIMENTS.json".into()))?;
-    let manifest_path = a.experiments.as_ref().ok_or_else(|| CliError::Usage("give --experiments EXPERIMENTS.json".into()))?;
-    let (flat, mut inputs) = crate::load::netlist_with_files(model_path, &[])?;
-    inputs.push(manifest_path.clone());
+/// The experiments of a manifest, read and checked against a model, with
+/// every file read for them (the manifest and its data files).
+pub struct Experiments {
+    pub resolved: identify::manifest::Resolved,
+    pub files: Vec<PathBuf>,
+}
+
+/// Read the manifest at `manifest_path` and its data files (which must lie
+/// in its folder or below) and resolve them against the model `flat`.
+pub fn read_experiments(flat: &graph::FlatNetlist, manifest_path: &Path) -> Result<Experiments, CliError> {
     let text =
         crate::load::read_text(manifest_path, crate::load::MAX_NETLIST_BYTES, "manifest").map_err(|e| CliError::io(manifest_path, e))?;
     let manifest = identify::manifest::parse(&text, &manifest_path.display().to_string()).map_err(|e| CliError::Data(e.to_string()))?;
@@ -87,18 +89,41 @@ pub fn run(a: &DiscrepancyArgs) -> Result<(), CliError> {
             .map(|t| (t, path.display().to_string()))
             .map_err(|e| format!("{}: {e}", crate::error::shown_path(&path)))
     };
-    let resolved = identify::manifest::resolve(&manifest, &flat, &read).map_err(CliError::Data)?;
-    inputs.extend(data_files.into_inner());
+    let resolved = identify::manifest::resolve(&manifest, flat, &read).map_err(CliError::Data)?;
+    let mut files = vec![manifest_path.to_path_buf()];
+    files.extend(data_files.into_inner());
+    Ok(Experiments { resolved, files })
+}
+
+/// Run the workflow (calibrate, diagnose, try the catalogue, select).
+pub fn analyse(flat: &graph::FlatNetlist, e: &Experiments) -> Result<Outcome, CliError> {
+    identify::run(flat, &e.resolved.experiments, &e.resolved.calibrate, &e.resolved.options).map_err(|e| CliError::Data(e.to_string()))
+}
+
+/// The file names a report directory receives besides the netlists and fit figures.
+pub const REPORT_FILES: [&str; 3] = ["summary.json", "report.md", "residuals_by_phase.png"];
+
+/// Refuse a report directory that holds an input under a name the report writes.
+pub fn check_report_dir(out: &Path, inputs: &[PathBuf]) -> Result<(), CliError> {
+    let targets: Vec<PathBuf> = REPORT_FILES.iter().map(|n| out.join(n)).collect();
+    let refs: Vec<&Path> = targets.iter().map(|p| p.as_path()).collect();
+    let ins: Vec<&Path> = inputs.iter().map(|p| p.as_path()).collect();
+    Transaction::new(&ins).check_targets(&refs)
+}
+
+pub fn run(a: &DiscrepancyArgs) -> Result<(), CliError> {
+    let model_path = a
+        .input
+        .as_ref()
+        .ok_or_else(|| CliError::Usage("give the model netlist: pneumo discrepancy MODEL.json --experiments EXPERIMENTS.json".into()))?;
+    let manifest_path = a.experiments.as_ref().ok_or_else(|| CliError::Usage("give --experiments EXPERIMENTS.json".into()))?;
+    let (flat, mut inputs) = crate::load::netlist_with_files(model_path, &[])?;
+    let experiments = read_experiments(&flat, manifest_path)?;
+    inputs.extend(experiments.files.iter().cloned());
     if let Some(out) = &a.report {
-        // the report directory must not hold an input under a name the report writes
-        let names = ["summary.json", "report.md", "residuals_by_phase.png"];
-        let targets: Vec<PathBuf> = names.iter().map(|n| out.join(n)).collect();
-        let refs: Vec<&Path> = targets.iter().map(|p| p.as_path()).collect();
-        let ins: Vec<&Path> = inputs.iter().map(|p| p.as_path()).collect();
-        Transaction::new(&ins).check_targets(&refs)?;
+        check_report_dir(out, &inputs)?;
     }
-    let outcome =
-        identify::run(&flat, &resolved.experiments, &resolved.calibrate, &resolved.options).map_err(|e| CliError::Data(e.to_string()))?;
+    let outcome = analyse(&flat, &experiments)?;
     let json = serde_json::to_string_pretty(&outcome.summary).map_err(|e| CliError::Data(e.to_string()))?;
     let mut written = Vec::new();
     if let Some(out) = &a.report {
@@ -162,7 +187,8 @@ fn estimate_row(e: &Estimate) -> String {
     format!("| {} | {} | {} |{}\n", e.name, shown(e, e.value), ci, if e.at_bound { " at a bound" } else { "" })
 }
 
-fn text_summary(o: &Outcome) -> String {
+/// The verdict and the candidates tried, as printed by `pneumo discrepancy`.
+pub fn text_summary(o: &Outcome) -> String {
     let s = &o.summary;
     let mut t = String::new();
     let _ = writeln!(t, "verdict: {}", s.verdict);
@@ -190,7 +216,8 @@ fn text_summary(o: &Outcome) -> String {
 
 // ---------------------------------------------------------------- netlists
 
-fn netlist_json(flat: &graph::FlatNetlist, description: String) -> Result<String, CliError> {
+/// A flat netlist as a runnable netlist file (JSON text), with this description.
+pub fn netlist_json(flat: &graph::FlatNetlist, description: String) -> Result<String, CliError> {
     // Expressions written inside subsystems refer to names of their scope;
     // in a flat file they become their values. Ids of expanded subsystems
     // ("cyl.head") are written with '_' ("cyl_head"), as file ids cannot
@@ -233,7 +260,7 @@ fn netlist_json(flat: &graph::FlatNetlist, description: String) -> Result<String
 }
 
 /// File name of an augmented netlist for a structure label ("a+b").
-fn model_file(label: &str) -> String {
+pub fn model_file(label: &str) -> String {
     if label == "baseline" {
         "model_calibrated.json".into()
     } else {
@@ -543,7 +570,7 @@ fn candidate_rows(md: &mut String, cands: &[Candidate]) {
 
 /// Write the report directory as one transaction: every file or none (a
 /// directory this call created is removed again if writing fails).
-fn write_report(
+pub fn write_report(
     out: &Path,
     inputs: &[PathBuf],
     model_path: &Path,
@@ -584,7 +611,7 @@ fn stage_report(
 ) -> Result<Vec<PathBuf>, CliError> {
     let s = &o.summary;
     let mut written = Vec::new();
-    let mut used: Vec<String> = ["summary.json", "report.md", "residuals_by_phase.png"].iter().map(|n| n.to_string()).collect();
+    let mut used: Vec<String> = REPORT_FILES.iter().map(|n| n.to_string()).collect();
     // netlists
     let mut model_files = Vec::new();
     for (label, flat) in &o.augmented {

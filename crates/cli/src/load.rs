@@ -1,10 +1,13 @@
 //! Reading netlists from disk: the file loader for `graph`, which also
 //! remembers every file it read (a netlist and its subsystems), so that no
-//! output may overwrite one of them.
+//! output may overwrite one of them, and [`Source`]: a model's files held in
+//! memory, so that it can be loaded again without the file system (on a Dask
+//! worker) and named in results by its path and content hash.
 
 use crate::error::CliError;
 use graph::{FlatNetlist, Loader};
 use std::cell::RefCell;
+use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
 /// Largest netlist file read [bytes]; a bigger one (or a device such as
@@ -81,4 +84,120 @@ pub fn netlist_with_files(path: &Path, sets: &[String]) -> Result<(FlatNetlist, 
         graph::apply_set(&mut flat, s)?;
     }
     Ok((flat, loader.read.into_inner()))
+}
+
+/// The netlist files of a model, as read: the path it was loaded from and
+/// the text of every file read for it (the netlist, then its subsystems, in
+/// the order `graph` asked for them).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Source {
+    pub path: PathBuf,
+    pub files: Vec<(PathBuf, String)>,
+}
+
+/// Serves preset texts by path and, if allowed, reads other paths from the
+/// file system; records every file it serves.
+struct SourceLoader {
+    preset: BTreeMap<PathBuf, String>,
+    file_system: bool,
+    served: RefCell<Vec<(PathBuf, String)>>,
+}
+
+impl Loader for SourceLoader {
+    fn read(&self, path: &Path) -> Result<String, String> {
+        let text = match self.preset.get(path) {
+            Some(text) => text.clone(),
+            None if self.file_system => read_text(path, MAX_NETLIST_BYTES, "netlist")?,
+            None => return Err("is not one of the model's files".into()),
+        };
+        let mut served = self.served.borrow_mut();
+        if !served.iter().any(|(p, _)| p == path) {
+            served.push((path.to_path_buf(), text.clone()));
+        }
+        Ok(text)
+    }
+    fn max_components(&self) -> usize {
+        limits().max_components
+    }
+}
+
+impl Source {
+    /// Load the netlist at `path` (and its subsystems) from the file system.
+    pub fn read(path: &Path) -> Result<(FlatNetlist, Source), CliError> {
+        Self::load_with(path, BTreeMap::new(), true)
+    }
+
+    /// Load a netlist given as text, named `path` in messages; subsystem
+    /// files it names are read relative to `path`'s folder.
+    pub fn from_text(text: &str, path: &Path) -> Result<(FlatNetlist, Source), CliError> {
+        Self::load_with(path, BTreeMap::from([(path.to_path_buf(), text.to_string())]), true)
+    }
+
+    /// Load the model again from the texts held (no file is read).
+    pub fn load(&self) -> Result<FlatNetlist, CliError> {
+        Ok(Self::load_with(&self.path, self.files.iter().cloned().collect(), false)?.0)
+    }
+
+    fn load_with(path: &Path, preset: BTreeMap<PathBuf, String>, file_system: bool) -> Result<(FlatNetlist, Source), CliError> {
+        let loader = SourceLoader { preset, file_system, served: RefCell::new(Vec::new()) };
+        let flat = graph::load(&loader, path)?;
+        Ok((flat, Source { path: path.to_path_buf(), files: loader.served.into_inner() }))
+    }
+
+    /// The path as given, for result files (`model` column).
+    pub fn name(&self) -> String {
+        graph::escape(&self.path.display().to_string())
+    }
+
+    /// SHA-256 (hex) of the bytes of every file read, concatenated in the
+    /// order they were read: for a netlist without subsystems, what
+    /// `sha256sum model.json` prints.
+    pub fn sha256(&self) -> String {
+        use sha2::{Digest, Sha256};
+        let mut hasher = Sha256::new();
+        for (_, text) in &self.files {
+            hasher.update(text.as_bytes());
+        }
+        hasher.finalize().iter().map(|b| format!("{b:02x}")).collect()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn models() -> PathBuf {
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("../../models")
+    }
+
+    #[test]
+    fn a_source_loads_again_without_the_file_system_and_hashes_its_files() {
+        let path = models().join("meter_out_subsystem.json");
+        let (flat, source) = Source::read(&path).unwrap();
+        assert!(source.files.len() >= 2, "the subsystem file is held too: {:?}", source.files.iter().map(|f| &f.0).collect::<Vec<_>>());
+        assert_eq!(source.files[0].0, path);
+        assert_eq!(source.load().unwrap(), flat);
+        // a file that is not held is not read from disk
+        let mut partial = source.clone();
+        partial.files.truncate(1);
+        let e = partial.load().unwrap_err().to_string();
+        assert!(e.contains("not one of the model's files"), "{e}");
+        // the hash of a one-file model is that of its bytes (sha256sum); a known vector
+        let one = Source { path: "m.json".into(), files: vec![("m.json".into(), "abc".into())] };
+        assert_eq!(one.sha256(), "ba7816bf8f01cfea414140de5dae2223b00361a396177a9cb410ff61f20015ad");
+        // it changes with any file's content
+        let mut other = source.clone();
+        other.files[1].1.push(' ');
+        assert_ne!(other.sha256(), source.sha256());
+    }
+
+    #[test]
+    fn a_netlist_given_as_text_is_held_under_its_name() {
+        let path = models().join("meter_out.json");
+        let text = std::fs::read_to_string(&path).unwrap();
+        let named = models().join("from_text.json");
+        let (flat, source) = Source::from_text(&text, &named).unwrap();
+        assert_eq!(flat.components.len(), Source::read(&path).unwrap().0.components.len());
+        assert_eq!(source.files, vec![(named, text)]);
+    }
 }

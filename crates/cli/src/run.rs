@@ -1,5 +1,5 @@
-//! Running one simulation from a netlist file with overrides: shared by
-//! `simulate` (and later `sweep`).
+//! Running one simulation from a netlist with overrides: shared by
+//! `simulate`, `sweep` and the Python package.
 
 use crate::error::CliError;
 use graph::FlatNetlist;
@@ -10,6 +10,8 @@ pub struct RunSpec {
     pub sets: Vec<String>,
     pub cycles: Option<u64>,
     pub t_end: Option<f64>,
+    /// Stops the run early when raised (Ctrl-C in Python); the command line never raises it.
+    pub cancel: Option<solve::Cancel>,
 }
 
 /// A finished run with the names the user asked to write.
@@ -43,6 +45,7 @@ pub fn prepare(mut flat: FlatNetlist, spec: &RunSpec) -> Result<Prepared, CliErr
     }
     let circuit = graph::build(&flat)?;
     let mut opts = solve::options_from(&circuit.simulation)?;
+    opts.cancel = spec.cancel.clone();
     if let Some(n) = spec.cycles {
         opts.cycles = Some(n);
         if spec.t_end.is_none() && circuit.simulation.t_end.is_none() {

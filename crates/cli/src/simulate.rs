@@ -3,7 +3,7 @@
 use crate::error::CliError;
 use crate::load::netlist_with_files;
 use crate::output::{csv, select_columns, summary, Transaction};
-use crate::run::{execute, prepare, RunSpec};
+use crate::run::{execute, prepare, Run, RunSpec};
 use std::path::PathBuf;
 
 #[derive(clap::Args, Debug)]
@@ -36,8 +36,19 @@ pub struct SimulateArgs {
     pub signals: Vec<String>,
 }
 
+/// The `--summary` JSON of a run: every signal, and why the run is
+/// incomplete if it is.
+pub fn summary_of(r: &Run) -> serde_json::Value {
+    let all: Vec<usize> = (0..r.result.columns.len()).collect();
+    let mut s = summary(&r.result, &r.name, &all);
+    if let Some(why) = &r.incomplete {
+        s["incomplete"] = serde_json::json!(why);
+    }
+    s
+}
+
 pub fn run(a: &SimulateArgs) -> Result<(), CliError> {
-    let spec = RunSpec { sets: a.sets.clone(), cycles: a.cycles, t_end: a.t_end };
+    let spec = RunSpec { sets: a.sets.clone(), cycles: a.cycles, t_end: a.t_end, cancel: None };
     let (flat, inputs) = netlist_with_files(&a.model, &[])?;
     let inputs: Vec<&std::path::Path> = inputs.iter().map(|p| p.as_path()).collect();
     let mut outputs = Transaction::new(&inputs);
@@ -59,16 +70,9 @@ pub fn run(a: &SimulateArgs) -> Result<(), CliError> {
     crate::output::print_warnings(&prepared.warnings);
     let r = execute(prepared)?;
     let columns = select_columns(&r.result, &wanted)?;
-    let all: Vec<usize> = (0..r.result.columns.len()).collect();
     // build everything before writing anything
     let csv_text = a.out.as_ref().map(|_| csv(&r.result, &columns, a.header_units));
-    let summary_text = a.summary.as_ref().map(|_| {
-        let mut s = summary(&r.result, &r.name, &all);
-        if let Some(why) = &r.incomplete {
-            s["incomplete"] = serde_json::json!(why);
-        }
-        serde_json::to_string_pretty(&s).unwrap_or_default()
-    });
+    let summary_text = a.summary.as_ref().map(|_| serde_json::to_string_pretty(&summary_of(&r)).unwrap_or_default());
     let plot_bytes = match &a.plot {
         Some(path) => Some(crate::plot::traces_image(&r.result, &columns, path)?),
         None => None,

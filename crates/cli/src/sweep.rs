@@ -1,8 +1,8 @@
 //! `pneumo sweep` and `pneumo merge`: full-factorial parameter studies run in
 //! parallel, split into shards for clusters, and joined back together.
 //!
-//! No physics here: every case is one ordinary run (`crate::run::run_flat`,
-//! the same path as `pneumo simulate`) of the netlist with the fixed `--set`
+//! No physics here: every case is one ordinary run (`crate::run::prepare`
+//! and `execute`, the same path as `pneumo simulate`) of the netlist with the fixed `--set`
 //! overrides followed by the case's varied assignments. What this module adds:
 //!
 //! - Case numbering. With axes `A` (values a0..), `B` (b0..), ... given in that
@@ -21,6 +21,14 @@
 //!   `<id>.T_max_K` for every temperature column `<id>.T` of the result (min
 //!   and max over the recorded samples), and `error` (empty on success). A
 //!   failed case is a row with its one-line error and empty numbers.
+//! - Provenance, so that a file alone says what produced it: `model` (the
+//!   netlist path as given), `model_sha256` (of the bytes of every netlist
+//!   file read, see [`Source::sha256`]), `set` (the fixed `--set`s as a JSON
+//!   list), `pneumo_version`, and one `param:NAME` column per parameter the
+//!   case ran with: every named parameter and every block parameter and
+//!   initial value (written, derived or default; initial values chosen by the
+//!   rest state as chosen), `gas.model`, `gas.species` and the effective
+//!   `simulation.*` settings (method included).
 //! - Numbers are written in Rust's shortest round-trip form (plain decimal for
 //!   1e-4 ≤ |x| < 1e15, scientific otherwise), so reading a cell back and
 //!   writing it again reproduces the same bytes; `merge` relies on this. JSON
@@ -29,11 +37,16 @@
 //! - Every row also carries `n_cases`, the size of the whole sweep, so that
 //!   `merge` can name missing cases even when a whole shard is absent.
 //!
-//! Assumption: the circuit's structure (and so its temperature columns) does
-//! not depend on the varied values.
+//! The same [`Plan`] serves the Python package: `pneumo.sweep` runs its cases
+//! on local threads or as tasks on Dask workers ([`Plan::run_case`]) and
+//! builds the same [`Table`] from the outcomes.
+//!
+//! Assumption: the circuit's structure (and so its temperature and parameter
+//! columns) does not depend on the varied values.
 
 use crate::error::CliError;
-use crate::run::{run_flat, RunSpec};
+use crate::load::Source;
+use crate::run::{execute, prepare, RunSpec};
 use blocks::params::{ParamKind, Range};
 use graph::FlatNetlist;
 use rayon::prelude::*;
@@ -86,7 +99,7 @@ pub struct MergeArgs {
 
 /// One output cell.
 #[derive(Debug, Clone, PartialEq)]
-enum Cell {
+pub enum Cell {
     Empty,
     Num(f64),
     Text(String),
@@ -94,12 +107,12 @@ enum Cell {
 
 /// A header and rows of cells, as written to or read from a file.
 #[derive(Debug, Clone, PartialEq)]
-struct Table {
-    header: Vec<String>,
-    rows: Vec<Vec<Cell>>,
+pub struct Table {
+    pub header: Vec<String>,
+    pub rows: Vec<Vec<Cell>>,
 }
 
-/// One `--vary` axis.
+/// One varied parameter.
 #[derive(Debug, Clone)]
 struct Axis {
     target: String,
@@ -110,32 +123,103 @@ struct Axis {
 }
 
 /// What one case produced.
-struct Outcome {
-    index: usize,
+#[derive(Debug, Clone, PartialEq)]
+pub struct Outcome {
+    /// Case index in the whole sweep (0-based).
+    pub index: usize,
     /// (extend, retract, total) per completed cycle [s].
-    cycles: Vec<(f64, f64, f64)>,
-    /// (min, max) of each temperature column, aligned with the sweep's list.
-    temps: Vec<(Option<f64>, Option<f64>)>,
-    error: Option<String>,
+    pub cycles: Vec<(f64, f64, f64)>,
+    /// (min, max) of each temperature column, aligned with [`Plan::temperature_columns`].
+    pub temps: Vec<(Option<f64>, Option<f64>)>,
+    /// The case's parameters, aligned with [`Plan::parameter_columns`].
+    pub params: Vec<Cell>,
+    /// The one-line error of a failed (or incomplete) case.
+    pub error: Option<String>,
+}
+
+/// A study: everything `pneumo sweep` takes besides the netlist file, the
+/// output file and the number of threads.
+#[derive(Debug, Clone)]
+pub struct Study {
+    /// `(ID.PARAM, values as written)`, slowest first.
+    pub axes: Vec<(String, Vec<String>)>,
+    /// Fixed overrides `ID.PARAM=VALUE`, applied before the varied values.
+    pub sets: Vec<String>,
+    pub cycles: Option<u64>,
+    pub t_end: Option<f64>,
+    /// `(K, N)`, 1-based K: only the cases with index mod N = K - 1.
+    pub shard: Option<(usize, usize)>,
+    /// Most cases this process may run.
+    pub max_cases: usize,
+}
+
+impl Default for Study {
+    fn default() -> Self {
+        Study { axes: Vec::new(), sets: Vec::new(), cycles: None, t_end: None, shard: None, max_cases: DEFAULT_MAX_CASES }
+    }
+}
+
+/// Prefix of the columns that hold every parameter of a case.
+pub const PARAM_PREFIX: &str = "param:";
+
+/// Columns that hold words or paths, never numbers, whatever they look like.
+const TEXT_COLUMNS: [&str; 5] = ["error", "model", "model_sha256", "set", "pneumo_version"];
+
+/// Simulation settings recorded for every case (after `--cycles`/`--t-end`).
+const SIMULATION_COLUMNS: [&str; 8] = [
+    "simulation.t_end",
+    "simulation.cycles",
+    "simulation.rtol",
+    "simulation.atol",
+    "simulation.sample_interval",
+    "simulation.max_step",
+    "simulation.initial",
+    "simulation.method",
+];
+
+/// A sweep ready to run: the netlist read once, every `--vary` value
+/// checked and converted, the cases numbered and the columns fixed.
+#[derive(Debug, Clone)]
+pub struct Plan {
+    base: FlatNetlist,
+    sets: Vec<String>,
+    axes: Vec<Axis>,
+    total: usize,
+    selected: Vec<usize>,
+    temps: Vec<String>,
+    /// Names (without [`PARAM_PREFIX`]) of the parameter columns.
+    params: Vec<String>,
+    /// Cycles every case is asked for, if known before running (sizes the cycle columns).
+    requested: Option<u64>,
+    cycles: Option<u64>,
+    t_end: Option<f64>,
+    model: String,
+    model_sha256: String,
+}
+
+/// Check one axis as `--vary` gives it: an `ID.PARAM` target and non-empty values.
+fn check_axis(shown: &str, target: &str, texts: &[String]) -> Result<(), CliError> {
+    let bad = |why: &str| CliError::Usage(format!("--vary \"{shown}\": {why}"));
+    if graph::netlist::split_ref(target).is_none() {
+        return Err(bad("expected ID.PARAM=V1,V2,... (the target needs an id and a parameter, e.g. supply.p)"));
+    }
+    if texts.is_empty() || texts.iter().any(|t| t.is_empty()) {
+        return Err(bad("empty value in the list (values are separated by single commas)"));
+    }
+    Ok(())
 }
 
 /// Split "ID.PARAM=V1, V2, ..." into the target and the trimmed values.
 fn parse_vary(s: &str) -> Result<(String, Vec<String>), CliError> {
-    let bad = |why: &str| CliError::Usage(format!("--vary \"{s}\": {why}"));
-    let (target, list) = s.split_once('=').ok_or_else(|| bad("expected ID.PARAM=V1,V2,..."))?;
+    let (target, list) = s.split_once('=').ok_or_else(|| CliError::Usage(format!("--vary \"{s}\": expected ID.PARAM=V1,V2,...")))?;
     let target = target.trim();
-    if graph::netlist::split_ref(target).is_none() {
-        return Err(bad("expected ID.PARAM=V1,V2,... (the target needs an id and a parameter, e.g. supply.p)"));
-    }
     let texts: Vec<String> = list.split(',').map(|v| v.trim().to_string()).collect();
-    if texts.iter().any(|t| t.is_empty()) {
-        return Err(bad("empty value in the list (values are separated by single commas)"));
-    }
+    check_axis(s, target, &texts)?;
     Ok((target.to_string(), texts))
 }
 
 /// Parse "K/N" with 1 ≤ K ≤ N into (K, N).
-fn parse_shard(s: &str) -> Result<(usize, usize), CliError> {
+pub fn parse_shard(s: &str) -> Result<(usize, usize), CliError> {
     let bad = || CliError::Usage(format!("--shard \"{s}\": expected K/N with 1 <= K <= N (e.g. 3/16)"));
     let (k, n) = s.split_once('/').ok_or_else(bad)?;
     let k: usize = k.trim().parse().map_err(|_| bad())?;
@@ -245,48 +329,63 @@ fn case_sets(axes: &[Axis], i: usize) -> Vec<String> {
     case_indices(axes, i).iter().zip(axes).map(|(&j, a)| format!("{}={}", a.target, a.texts[j])).collect()
 }
 
-/// Temperature columns ("<id>.T") of the circuit, taken from the first case
-/// whose netlist builds (building is cheap; nothing is simulated).
-fn temperature_columns(base: &FlatNetlist, axes: &[Axis], total: usize) -> Vec<String> {
-    for i in 0..total {
-        let mut flat = base.clone();
-        if case_sets(axes, i).iter().any(|s| graph::apply_set(&mut flat, s).is_err()) {
-            continue;
-        }
-        if let Ok(circuit) = graph::build(&flat) {
-            let names = solve::Model::new(circuit).output_names();
-            return names.into_iter().filter(|n| n.ends_with(".T") && n.len() > 2).collect();
+/// Every parameter of a netlist after its overrides, by name: named
+/// parameters and every block parameter and initial value (written or
+/// default) in SI from `graph::resolve`, choices as their word, lists as
+/// "[a, b]", and the gas. Empty if the values do not resolve (the run then
+/// fails and says why).
+pub fn netlist_parameters(flat: &FlatNetlist) -> Vec<(String, Cell)> {
+    let Ok(resolved) = graph::resolve(flat) else { return Vec::new() };
+    let mut out: Vec<(String, Cell)> = resolved.values.iter().map(|(name, v)| (name.clone(), Cell::Num(v.si))).collect();
+    for c in &flat.components {
+        let Ok(ty) = blocks::registry::block_type(&c.kind) else { continue };
+        for spec in ty.params {
+            let written = c.value(spec.name);
+            let cell = match spec.kind {
+                ParamKind::Choice(options) => {
+                    let index = match written {
+                        Some(v) => blocks::params::parse_value(spec, &v.to_raw()).ok(),
+                        None => spec.default,
+                    };
+                    index.and_then(|i| options.get(i as usize)).map_or(Cell::Empty, |w| Cell::Text(w.to_string()))
+                }
+                ParamKind::List(_) => {
+                    let shown = written.map(|v| v.to_raw().to_string()).unwrap_or_default();
+                    let inner = shown.trim().trim_start_matches('[').trim_end_matches(']').trim().to_string();
+                    Cell::Text(format!("[{inner}]"))
+                }
+                _ => continue,
+            };
+            out.push((format!("{}.{}", c.id, spec.name), cell));
         }
     }
-    Vec::new()
+    let word = |v: serde_json::Result<serde_json::Value>| match v {
+        Ok(serde_json::Value::String(s)) => Cell::Text(s),
+        _ => Cell::Empty,
+    };
+    out.push(("gas.model".into(), word(serde_json::to_value(flat.gas.model))));
+    out.push(("gas.species".into(), word(serde_json::to_value(flat.gas.species))));
+    out.sort_by(|a, b| a.0.cmp(&b.0));
+    out
 }
 
-fn run_case(base: &FlatNetlist, sets: &[String], axes: &[Axis], spec: &RunSpec, temps: &[String], index: usize) -> Outcome {
-    let mut all_sets = sets.to_vec();
-    all_sets.extend(case_sets(axes, index));
-    let spec = RunSpec { sets: all_sets, cycles: spec.cycles, t_end: spec.t_end };
-    match run_flat(base.clone(), &spec) {
-        Ok(run) => {
-            let r = &run.result;
-            let cycles = r.cycles.iter().map(|c| (c.extend, c.retract, c.total)).collect();
-            let temps = temps
-                .iter()
-                .map(|name| {
-                    let Some(c) = r.column(name) else { return (None, None) };
-                    let mut range: Option<(f64, f64)> = None;
-                    for v in r.rows.iter().filter_map(|row| row[c]) {
-                        range = Some(range.map_or((v, v), |(lo, hi)| (lo.min(v), hi.max(v))));
-                    }
-                    (range.map(|r| r.0), range.map(|r| r.1))
-                })
-                .collect();
-            Outcome { index, cycles, temps, error: run.incomplete.clone() }
-        }
-        Err(e) => {
-            let msg = e.to_string().split_whitespace().collect::<Vec<_>>().join(" ");
-            Outcome { index, cycles: Vec::new(), temps: vec![(None, None); temps.len()], error: Some(msg) }
-        }
-    }
+/// The settings a case runs with (aligned with [`SIMULATION_COLUMNS`]).
+fn simulation_parameters(opts: &solve::SimOptions, simulation: &graph::netlist::Simulation) -> Vec<(String, Cell)> {
+    let word = |v: serde_json::Result<serde_json::Value>| match v {
+        Ok(serde_json::Value::String(s)) => Cell::Text(s),
+        _ => Cell::Empty,
+    };
+    let values = [
+        Cell::Num(opts.t_end),
+        opts.cycles.map_or(Cell::Empty, |n| Cell::Num(n as f64)),
+        Cell::Num(opts.rtol),
+        Cell::Num(opts.atol),
+        Cell::Num(opts.sample_interval),
+        Cell::Num(opts.max_step),
+        word(serde_json::to_value(simulation.initial)),
+        word(serde_json::to_value(simulation.method)),
+    ];
+    SIMULATION_COLUMNS.iter().map(|s| s.to_string()).zip(values).collect()
 }
 
 /// Default of `--max-cases`: a sweep larger than this runs as shards.
@@ -305,52 +404,323 @@ fn is_cycle_column(name: &str) -> bool {
     digits > 0 && matches!(&rest[digits..], "_extend_s" | "_retract_s" | "_total_s")
 }
 
-fn build_table(axes: &[Axis], temps: &[String], ncyc: usize, total: usize, outcomes: &[Outcome]) -> Table {
-    let mut header = vec!["case".to_string(), "n_cases".to_string()];
-    header.extend(axes.iter().map(|a| a.target.clone()));
-    for k in 1..=ncyc {
-        header.extend(cycle_columns(k));
-    }
-    header.push("cycle_time_s".into());
-    for t in temps {
-        header.push(format!("{t}_min_K"));
-        header.push(format!("{t}_max_K"));
-    }
-    header.push("error".into());
-    let num = |x: Option<f64>| x.map_or(Cell::Empty, Cell::Num);
-    let rows = outcomes
-        .iter()
-        .map(|o| {
-            let mut row = vec![Cell::Num(o.index as f64), Cell::Num(total as f64)];
-            row.extend(case_indices(axes, o.index).iter().zip(axes).map(|(&j, a)| a.values[j].clone()));
-            for k in 0..ncyc {
-                let c = o.cycles.get(k);
-                row.extend([num(c.map(|c| c.0)), num(c.map(|c| c.1)), num(c.map(|c| c.2))]);
+/// A message as one line (whitespace runs, newlines included, become one space).
+fn one_line(e: &CliError) -> String {
+    e.to_string().split_whitespace().collect::<Vec<_>>().join(" ")
+}
+
+impl Plan {
+    /// Check the study against the netlist `base` (read from `source`):
+    /// every `--vary` target and value, `--set`, the shard and the number of
+    /// cases. Nothing is simulated.
+    pub fn new(base: FlatNetlist, source: &Source, study: &Study) -> Result<Plan, CliError> {
+        let mut axes: Vec<Axis> = Vec::with_capacity(study.axes.len());
+        for (target, texts) in &study.axes {
+            let target = target.trim();
+            let texts: Vec<String> = texts.iter().map(|t| t.trim().to_string()).collect();
+            check_axis(&format!("{target}={}", texts.join(",")), target, &texts)?;
+            if axes.iter().any(|x| x.target == target) {
+                return Err(CliError::Usage(format!("--vary {target} is given twice (put all its values in one list)")));
             }
-            // A case that stopped early keeps the cycles it completed, but has
-            // no cycle time and no temperature range (they would describe a
-            // shorter run than the other rows).
-            let failed = o.error.is_some();
-            row.push(if failed { Cell::Empty } else { num(o.cycles.last().map(|c| c.2)) });
-            for &(lo, hi) in &o.temps {
-                row.push(if failed { Cell::Empty } else { num(lo) });
-                row.push(if failed { Cell::Empty } else { num(hi) });
+            axes.push(Axis { target: target.to_string(), texts, values: Vec::new() });
+        }
+        if axes.is_empty() {
+            return Err(CliError::Usage("nothing to vary (give at least one --vary ID.PARAM=V1,V2,...)".into()));
+        }
+        if let Some((k, n)) = study.shard {
+            if k == 0 || n == 0 || k > n {
+                return Err(CliError::Usage(format!("--shard \"{k}/{n}\": expected K/N with 1 <= K <= N (e.g. 3/16)")));
             }
-            row.push(o.error.clone().map_or(Cell::Empty, Cell::Text));
-            row
+        }
+        if let Some(t) = study.t_end {
+            if !(t > 0.0 && t.is_finite()) {
+                return Err(CliError::Usage(format!("--t-end must be > 0 s, got {t}")));
+            }
+        }
+        // --set errors stop the sweep before any case runs
+        let mut with_sets = base.clone();
+        for s in &study.sets {
+            graph::apply_set(&mut with_sets, s)?;
+        }
+        for axis in &mut axes {
+            let target = resolve(&with_sets, &axis.target).map_err(|why| CliError::Usage(format!("--vary {}: {why}", axis.target)))?;
+            for text in &axis.texts {
+                let value = si_value(&target, text).map_err(|why| CliError::Usage(format!("--vary {}={text}: {why}", axis.target)))?;
+                axis.values.push(value);
+            }
+        }
+        let total = axes
+            .iter()
+            .try_fold(1usize, |n, x| n.checked_mul(x.texts.len()))
+            .filter(|&n| n as u64 <= MAX_INDEX)
+            .ok_or_else(|| CliError::Usage(format!("the sweep has more than {MAX_INDEX} cases")))?;
+        let mine = match study.shard {
+            Some((k, n)) => total / n + usize::from(k - 1 < total % n),
+            None => total,
+        };
+        if mine > study.max_cases {
+            return Err(CliError::Usage(format!(
+                "this sweep would run {mine} cases, more than --max-cases {} (raise it, or split the sweep with --shard K/N)",
+                study.max_cases
+            )));
+        }
+        let selected: Vec<usize> = match study.shard {
+            Some((k, n)) => (k - 1..total).step_by(n).collect(),
+            None => (0..total).collect(),
+        };
+        let (temps, params) = Self::columns(&with_sets, &axes, total);
+        let requested = study.cycles.or_else(|| {
+            let varied = axes.iter().find(|x| x.target == "simulation.cycles");
+            match varied {
+                Some(x) => x.values.iter().filter_map(|v| if let Cell::Num(n) = v { Some(*n as u64) } else { None }).max(),
+                None => with_sets.simulation.cycles,
+            }
+        });
+        Ok(Plan {
+            base,
+            sets: study.sets.clone(),
+            axes,
+            total,
+            selected,
+            temps,
+            params,
+            requested,
+            cycles: study.cycles,
+            t_end: study.t_end,
+            model: source.name(),
+            model_sha256: source.sha256(),
         })
-        .collect();
-    Table { header, rows }
+    }
+
+    /// Temperature columns ("<id>.T") and parameter names of the circuit,
+    /// taken from the first case whose netlist builds (building is cheap;
+    /// nothing is simulated), so that every shard finds the same.
+    fn columns(with_sets: &FlatNetlist, axes: &[Axis], total: usize) -> (Vec<String>, Vec<String>) {
+        for i in 0..total {
+            let mut flat = with_sets.clone();
+            if case_sets(axes, i).iter().any(|s| graph::apply_set(&mut flat, s).is_err()) {
+                continue;
+            }
+            if let Ok(circuit) = graph::build(&flat) {
+                let names = solve::Model::new(circuit).output_names();
+                let temps = names.into_iter().filter(|n| n.ends_with(".T") && n.len() > 2).collect();
+                let mut params: Vec<String> = netlist_parameters(&flat).into_iter().map(|(n, _)| n).collect();
+                params.extend(SIMULATION_COLUMNS.iter().map(|s| s.to_string()));
+                return (temps, params);
+            }
+        }
+        (Vec::new(), Vec::new())
+    }
+
+    /// Number of cases in the whole sweep (all shards).
+    pub fn n_cases(&self) -> usize {
+        self.total
+    }
+
+    /// Indices of the cases this plan runs (all, or its shard's).
+    pub fn selected(&self) -> &[usize] {
+        &self.selected
+    }
+
+    /// The temperature columns ("head.T") whose range every case records.
+    pub fn temperature_columns(&self) -> &[String] {
+        &self.temps
+    }
+
+    /// Names of the parameter columns (without [`PARAM_PREFIX`]).
+    pub fn parameter_columns(&self) -> &[String] {
+        &self.params
+    }
+
+    /// `(ID.PARAM, values as written)` of every axis.
+    pub fn axes(&self) -> Vec<(String, Vec<String>)> {
+        self.axes.iter().map(|a| (a.target.clone(), a.texts.clone())).collect()
+    }
+
+    /// The `ID.PARAM=VALUE` assignments of case `index` (fixed ones first).
+    pub fn case_assignments(&self, index: usize) -> Vec<String> {
+        let mut all = self.sets.clone();
+        all.extend(case_sets(&self.axes, index));
+        all
+    }
+
+    /// Run one case (the same path as `pneumo simulate`). Never fails: an
+    /// error becomes the outcome's one-line message.
+    pub fn run_case(&self, index: usize, cancel: Option<&solve::Cancel>) -> Outcome {
+        let mut params = vec![Cell::Empty; self.params.len()];
+        let no_temps = vec![(None, None); self.temps.len()];
+        let failed = |e: CliError, params: Vec<Cell>| Outcome {
+            index,
+            cycles: Vec::new(),
+            temps: no_temps.clone(),
+            params,
+            error: Some(one_line(&e)),
+        };
+        if index >= self.total {
+            return failed(CliError::Usage(format!("case {index} is out of range (n_cases = {})", self.total)), params);
+        }
+        let mut flat = self.base.clone();
+        for s in self.case_assignments(index) {
+            if let Err(e) = graph::apply_set(&mut flat, &s) {
+                return failed(e.into(), params);
+            }
+        }
+        let mut put = |found: Vec<(String, Cell)>| {
+            for (name, cell) in found {
+                if let Some(k) = self.params.iter().position(|p| *p == name) {
+                    params[k] = cell;
+                }
+            }
+        };
+        put(netlist_parameters(&flat));
+        let simulation = flat.simulation.clone();
+        let spec = RunSpec { sets: Vec::new(), cycles: self.cycles, t_end: self.t_end, cancel: cancel.cloned() };
+        let prepared = match prepare(flat, &spec) {
+            Ok(p) => p,
+            Err(e) => return failed(e, params),
+        };
+        put(simulation_parameters(&prepared.opts, &simulation));
+        match execute(prepared) {
+            Ok(run) => {
+                let r = &run.result;
+                let cycles = r.cycles.iter().map(|c| (c.extend, c.retract, c.total)).collect();
+                let temps = self
+                    .temps
+                    .iter()
+                    .map(|name| {
+                        let Some(c) = r.column(name) else { return (None, None) };
+                        let mut range: Option<(f64, f64)> = None;
+                        for v in r.rows.iter().filter_map(|row| row[c]) {
+                            range = Some(range.map_or((v, v), |(lo, hi)| (lo.min(v), hi.max(v))));
+                        }
+                        (range.map(|r| r.0), range.map(|r| r.1))
+                    })
+                    .collect();
+                // the initial values the rest state chose are the ones the case ran with
+                put(r.rest.values.iter().map(|v| (format!("{}.{}", v.id, v.param), Cell::Num(v.value))).collect());
+                Outcome { index, cycles, temps, params, error: run.incomplete.clone() }
+            }
+            Err(e) => failed(e, params),
+        }
+    }
+
+    /// Run `indices` on a pool of `jobs` threads, results in the order
+    /// given; `tick` is called after each case. A raised `cancel` makes the
+    /// remaining cases end at once with the message "cancelled".
+    pub fn run_cases(
+        &self,
+        indices: &[usize],
+        jobs: usize,
+        cancel: Option<&solve::Cancel>,
+        tick: &(dyn Fn() + Sync),
+    ) -> Result<Vec<Outcome>, CliError> {
+        if jobs == 0 {
+            return Err(CliError::Usage("--jobs must be at least 1".into()));
+        }
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(jobs)
+            .build()
+            .map_err(|e| CliError::Data(format!("cannot start {jobs} worker threads: {e}")))?;
+        Ok(pool.install(|| {
+            indices
+                .par_iter()
+                .map(|&i| {
+                    let o = self.run_case(i, cancel);
+                    tick();
+                    o
+                })
+                .collect()
+        }))
+    }
+
+    /// The output table of these outcomes (sorted by case): one row per case.
+    pub fn table(&self, outcomes: &[Outcome]) -> Table {
+        let mut sorted: Vec<&Outcome> = outcomes.iter().collect();
+        sorted.sort_by_key(|o| o.index);
+        let observed = sorted.iter().map(|o| o.cycles.len()).max().unwrap_or(0);
+        let ncyc = observed.max(self.requested.map_or(0, |n| usize::try_from(n).unwrap_or(usize::MAX).min(100_000)));
+        let mut header = vec!["case".to_string(), "n_cases".to_string()];
+        header.extend(self.axes.iter().map(|a| a.target.clone()));
+        for k in 1..=ncyc {
+            header.extend(cycle_columns(k));
+        }
+        header.push("cycle_time_s".into());
+        for t in &self.temps {
+            header.push(format!("{t}_min_K"));
+            header.push(format!("{t}_max_K"));
+        }
+        header.push("error".into());
+        header.extend(["model", "model_sha256", "set", "pneumo_version"].map(String::from));
+        header.extend(self.params.iter().map(|p| format!("{PARAM_PREFIX}{p}")));
+        let sets = serde_json::to_string(&self.sets).unwrap_or_else(|_| "[]".into());
+        let num = |x: Option<f64>| x.map_or(Cell::Empty, Cell::Num);
+        let rows = sorted
+            .iter()
+            .map(|o| {
+                let mut row = vec![Cell::Num(o.index as f64), Cell::Num(self.total as f64)];
+                row.extend(case_indices(&self.axes, o.index).iter().zip(&self.axes).map(|(&j, a)| a.values[j].clone()));
+                for k in 0..ncyc {
+                    let c = o.cycles.get(k);
+                    row.extend([num(c.map(|c| c.0)), num(c.map(|c| c.1)), num(c.map(|c| c.2))]);
+                }
+                // A case that stopped early keeps the cycles it completed, but
+                // has no cycle time and no temperature range (they would
+                // describe a shorter run than the other rows).
+                let failed = o.error.is_some();
+                row.push(if failed { Cell::Empty } else { num(o.cycles.last().map(|c| c.2)) });
+                for k in 0..self.temps.len() {
+                    let (lo, hi) = if failed { (None, None) } else { o.temps.get(k).copied().unwrap_or((None, None)) };
+                    row.push(num(lo));
+                    row.push(num(hi));
+                }
+                row.push(o.error.clone().map_or(Cell::Empty, Cell::Text));
+                row.push(Cell::Text(self.model.clone()));
+                row.push(Cell::Text(self.model_sha256.clone()));
+                row.push(Cell::Text(sets.clone()));
+                row.push(Cell::Text(env!("CARGO_PKG_VERSION").into()));
+                row.extend((0..self.params.len()).map(|k| o.params.get(k).cloned().unwrap_or(Cell::Empty)));
+                row
+            })
+            .collect();
+        Table { header, rows }
+    }
+
+    /// The human-readable table printed to stdout: values as written, cycle time, status.
+    pub fn summary_table(&self, outcomes: &[Outcome]) -> String {
+        let mut header = vec!["case".to_string()];
+        header.extend(self.axes.iter().map(|a| a.target.clone()));
+        header.push("cycle_time_s".into());
+        header.push("status".into());
+        let mut lines = vec![header];
+        for o in outcomes {
+            let mut line = vec![o.index.to_string()];
+            line.extend(case_indices(&self.axes, o.index).iter().zip(&self.axes).map(|(&j, a)| a.texts[j].clone()));
+            line.push(o.cycles.last().map_or("-".into(), |c| format!("{:.4}", c.2)));
+            line.push(o.error.as_ref().map_or("ok".into(), |e| format!("error: {e}")));
+            lines.push(line);
+        }
+        let ncol = lines[0].len();
+        let widths: Vec<usize> = (0..ncol - 1).map(|c| lines.iter().map(|l| l[c].chars().count()).max().unwrap_or(0)).collect();
+        let mut s = String::new();
+        for l in &lines {
+            for (c, w) in widths.iter().enumerate() {
+                s.push_str(&format!("{:<w$}  ", l[c], w = *w));
+            }
+            s.push_str(&l[ncol - 1]);
+            s.push('\n');
+        }
+        s
+    }
 }
 
 pub fn run(a: &SweepArgs) -> Result<(), CliError> {
     let mut axes = Vec::with_capacity(a.vary.len());
     for v in &a.vary {
         let (target, texts) = parse_vary(v)?;
-        if axes.iter().any(|x: &Axis| x.target == target) {
+        if axes.iter().any(|(t, _): &(String, Vec<String>)| *t == target) {
             return Err(CliError::Usage(format!("--vary {target} is given twice (put all its values in one list)")));
         }
-        axes.push(Axis { target, texts, values: Vec::new() });
+        axes.push((target, texts));
     }
     let shard = a.shard.as_deref().map(parse_shard).transpose()?;
     let jobs = match a.jobs {
@@ -363,82 +733,28 @@ pub fn run(a: &SweepArgs) -> Result<(), CliError> {
             return Err(CliError::Usage(format!("--t-end must be > 0 s, got {t}")));
         }
     }
-    // The file is read once; --set errors stop the sweep before any case runs.
-    let (base, inputs) = crate::load::netlist_with_files(&a.model, &[])?;
-    let inputs: Vec<&std::path::Path> = inputs.iter().map(|p| p.as_path()).collect();
+    // The file is read once.
+    let (base, source) = Source::read(&a.model)?;
+    let inputs: Vec<&std::path::Path> = source.files.iter().map(|(p, _)| p.as_path()).collect();
     let mut outputs = crate::output::Transaction::new(&inputs);
     if let Some(out) = &a.out {
         outputs.check_targets(&[out])?;
     }
-    let mut with_sets = base.clone();
-    for s in &a.sets {
-        graph::apply_set(&mut with_sets, s)?;
-    }
-    for axis in &mut axes {
-        let target = resolve(&with_sets, &axis.target).map_err(|why| CliError::Usage(format!("--vary {}: {why}", axis.target)))?;
-        for text in &axis.texts {
-            let value = si_value(&target, text).map_err(|why| CliError::Usage(format!("--vary {}={text}: {why}", axis.target)))?;
-            axis.values.push(value);
-        }
-    }
-    let total = axes
-        .iter()
-        .try_fold(1usize, |n, x| n.checked_mul(x.texts.len()))
-        .filter(|&n| n as u64 <= MAX_INDEX)
-        .ok_or_else(|| CliError::Usage(format!("the sweep has more than {MAX_INDEX} cases")))?;
-    let mine = match shard {
-        Some((k, n)) => total / n + usize::from(k - 1 < total % n),
-        None => total,
-    };
-    if mine > a.max_cases {
-        return Err(CliError::Usage(format!(
-            "this sweep would run {mine} cases, more than --max-cases {} (raise it, or split the sweep with --shard K/N)",
-            a.max_cases
-        )));
-    }
-    let selected: Vec<usize> = match shard {
-        Some((k, n)) => (k - 1..total).step_by(n).collect(),
-        None => (0..total).collect(),
-    };
-    let temps = temperature_columns(&with_sets, &axes, total);
-    let requested = a.cycles.or_else(|| {
-        let varied = axes.iter().find(|x| x.target == "simulation.cycles");
-        match varied {
-            Some(x) => x.values.iter().filter_map(|v| if let Cell::Num(n) = v { Some(*n as u64) } else { None }).max(),
-            None => with_sets.simulation.cycles,
-        }
-    });
-    let spec = RunSpec { sets: Vec::new(), cycles: a.cycles, t_end: a.t_end };
-
-    let pool = rayon::ThreadPoolBuilder::new()
-        .num_threads(jobs)
-        .build()
-        .map_err(|e| CliError::Data(format!("cannot start {jobs} worker threads: {e}")))?;
-    let bar = progress_bar(selected.len());
-    let outcomes: Vec<Outcome> = pool.install(|| {
-        selected
-            .par_iter()
-            .map(|&i| {
-                let o = run_case(&base, &a.sets, &axes, &spec, &temps, i);
-                bar.inc(1);
-                o
-            })
-            .collect()
-    });
+    let study = Study { axes, sets: a.sets.clone(), cycles: a.cycles, t_end: a.t_end, shard, max_cases: a.max_cases };
+    let plan = Plan::new(base, &source, &study)?;
+    let bar = progress_bar(plan.selected().len());
+    let outcomes = plan.run_cases(plan.selected(), jobs, None, &|| bar.inc(1))?;
     bar.finish_and_clear();
-
-    let observed = outcomes.iter().map(|o| o.cycles.len()).max().unwrap_or(0);
-    let ncyc = observed.max(requested.map_or(0, |n| usize::try_from(n).unwrap_or(usize::MAX).min(100_000)));
-    let table = build_table(&axes, &temps, ncyc, total, &outcomes);
+    let table = plan.table(&outcomes);
     if let Some(path) = &a.out {
         let bytes = if is_json(path) { to_json(&table) } else { to_csv(&table)? };
         outputs.add(path, &bytes)?;
         outputs.commit()?;
     }
-    print!("{}", summary_table(&axes, &outcomes));
+    print!("{}", plan.summary_table(&outcomes));
     let failed = outcomes.iter().filter(|o| o.error.is_some()).count();
     let of = match shard {
-        Some((k, n)) => format!(" (shard {k}/{n} of {total})"),
+        Some((k, n)) => format!(" (shard {k}/{n} of {})", plan.n_cases()),
         None => String::new(),
     };
     println!("{} cases{of}, {} ok, {failed} failed", outcomes.len(), outcomes.len() - failed);
@@ -457,39 +773,13 @@ fn progress_bar(n: usize) -> indicatif::ProgressBar {
     bar
 }
 
-/// The human-readable table printed to stdout: values as written, cycle time, status.
-fn summary_table(axes: &[Axis], outcomes: &[Outcome]) -> String {
-    let mut header = vec!["case".to_string()];
-    header.extend(axes.iter().map(|a| a.target.clone()));
-    header.push("cycle_time_s".into());
-    header.push("status".into());
-    let mut lines = vec![header];
-    for o in outcomes {
-        let mut line = vec![o.index.to_string()];
-        line.extend(case_indices(axes, o.index).iter().zip(axes).map(|(&j, a)| a.texts[j].clone()));
-        line.push(o.cycles.last().map_or("-".into(), |c| format!("{:.4}", c.2)));
-        line.push(o.error.as_ref().map_or("ok".into(), |e| format!("error: {e}")));
-        lines.push(line);
-    }
-    let ncol = lines[0].len();
-    let widths: Vec<usize> = (0..ncol - 1).map(|c| lines.iter().map(|l| l[c].chars().count()).max().unwrap_or(0)).collect();
-    let mut s = String::new();
-    for l in &lines {
-        for (c, w) in widths.iter().enumerate() {
-            s.push_str(&format!("{:<w$}  ", l[c], w = *w));
-        }
-        s.push_str(&l[ncol - 1]);
-        s.push('\n');
-    }
-    s
-}
-
-fn is_json(path: &Path) -> bool {
+/// Whether an output path asks for JSON (by its extension).
+pub fn is_json(path: &Path) -> bool {
     path.extension().is_some_and(|e| e.eq_ignore_ascii_case("json"))
 }
 
 /// Shortest round-trip text of a number: plain for 1e-4 ≤ |x| < 1e15, else scientific.
-fn fmt_num(x: f64) -> String {
+pub fn fmt_num(x: f64) -> String {
     let a = x.abs();
     if !x.is_finite() || a == 0.0 || (1e-4..1e15).contains(&a) {
         format!("{x}")
@@ -498,7 +788,8 @@ fn fmt_num(x: f64) -> String {
     }
 }
 
-fn to_csv(t: &Table) -> Result<Vec<u8>, CliError> {
+/// The table as CSV (the bytes `pneumo sweep --out f.csv` writes).
+pub fn to_csv(t: &Table) -> Result<Vec<u8>, CliError> {
     let err = |e: csv::Error| CliError::Data(format!("cannot format CSV: {e}"));
     let mut w = csv::WriterBuilder::new().from_writer(Vec::new());
     w.write_record(&t.header).map_err(err)?;
@@ -514,7 +805,7 @@ fn to_csv(t: &Table) -> Result<Vec<u8>, CliError> {
 }
 
 /// `{"columns": [...], "cases": [{...}, ...]}`, one case per line, keys in column order.
-fn to_json(t: &Table) -> Vec<u8> {
+pub fn to_json(t: &Table) -> Vec<u8> {
     let q = |s: &str| serde_json::to_string(s).unwrap_or_else(|_| "\"\"".into());
     let mut s = String::from("{\n  \"columns\": [");
     s.push_str(&t.header.iter().map(|h| q(h)).collect::<Vec<_>>().join(", "));
@@ -540,14 +831,19 @@ fn to_json(t: &Table) -> Vec<u8> {
     s.into_bytes()
 }
 
-/// A cell read back from a file: numbers where the text is one (except in `error`).
+/// A cell read back from a file: a number where the text is one written
+/// the way this module writes numbers (so that writing it again gives the
+/// same bytes), text otherwise, and always text in the columns of words.
 fn cell_from_text(column: &str, text: &str) -> Cell {
     if text.is_empty() {
-        Cell::Empty
-    } else if column != "error" {
-        text.parse::<f64>().map_or_else(|_| Cell::Text(text.to_string()), Cell::Num)
-    } else {
-        Cell::Text(text.to_string())
+        return Cell::Empty;
+    }
+    if TEXT_COLUMNS.contains(&column) {
+        return Cell::Text(text.to_string());
+    }
+    match text.parse::<f64>() {
+        Ok(x) if fmt_num(x) == text => Cell::Num(x),
+        _ => Cell::Text(text.to_string()),
     }
 }
 
@@ -937,6 +1233,101 @@ mod tests {
         foreign.rows[0][1] = Cell::Num(4.0);
         let e = merge_tables(&paths, &[part(&[0, 1]), foreign], DEFAULT_MAX_CASES).unwrap_err().to_string();
         assert!(e.contains("different sweeps"), "{e}");
+    }
+
+    #[test]
+    fn cells_read_back_keep_their_text_unless_it_is_a_number_as_written() {
+        assert_eq!(cell_from_text("a.x", "0.30000000000000004"), Cell::Num(0.1 + 0.2));
+        assert_eq!(cell_from_text("a.x", "2.2e-9"), Cell::Num(2.2e-9));
+        assert_eq!(cell_from_text("a.x", "inf"), Cell::Num(f64::INFINITY));
+        // not the shortest form: kept as text so that it is written back unchanged
+        assert_eq!(cell_from_text("a.x", "1.50"), Cell::Text("1.50".into()));
+        assert_eq!(cell_from_text("a.x", "1e3"), Cell::Text("1e3".into()));
+        // words and paths stay text, whatever they look like
+        for column in TEXT_COLUMNS {
+            assert_eq!(cell_from_text(column, "12"), Cell::Text("12".into()), "{column}");
+        }
+        assert_eq!(cell_from_text("param:head.orientation", "extend"), Cell::Text("extend".into()));
+        assert_eq!(cell_from_text("a.x", ""), Cell::Empty);
+    }
+
+    fn meter_out() -> (FlatNetlist, Source) {
+        Source::read(&Path::new(env!("CARGO_MANIFEST_DIR")).join("../../models/meter_out.json")).unwrap()
+    }
+
+    #[test]
+    fn a_plan_checks_its_axes_like_the_command_line() {
+        let (flat, source) = meter_out();
+        let study = |axes: Vec<(&str, Vec<&str>)>| Study {
+            axes: axes.into_iter().map(|(t, v)| (t.to_string(), v.into_iter().map(String::from).collect())).collect(),
+            ..Study::default()
+        };
+        let err = |s: Study| Plan::new(flat.clone(), &source, &s).unwrap_err().to_string();
+        assert!(err(study(vec![("supply", vec!["4 bar"])])).contains("expected ID.PARAM"));
+        assert!(err(study(vec![("supply.p", vec![])])).contains("empty value"));
+        assert!(err(study(vec![("supply.p", vec!["4 bar", " "])])).contains("empty value"));
+        assert!(err(study(vec![("supply.p", vec!["4 bar"]), ("supply.p", vec!["5 bar"])])).contains("given twice"));
+        assert!(err(study(vec![("supply.p", vec!["7 m"])])).contains("7 m"));
+        assert!(err(study(vec![])).contains("nothing to vary"));
+        let mut sharded = study(vec![("supply.p", vec!["4 bar"])]);
+        sharded.shard = Some((3, 2));
+        assert!(err(sharded).contains("--shard"));
+        let plan = Plan::new(
+            flat.clone(),
+            &source,
+            &study(vec![("supply.p", vec!["4 bar", "5 bar", "6 bar"]), ("piston.mass", vec!["1 kg", "2 kg"])]),
+        )
+        .unwrap();
+        assert_eq!(plan.n_cases(), 6);
+        assert_eq!(plan.case_assignments(3), vec!["supply.p=5 bar", "piston.mass=2 kg"]);
+        assert_eq!(plan.temperature_columns(), ["head.T", "rod.T"]);
+        for name in ["bore", "supply.p", "head.orientation", "gas.model", "simulation.t_end"] {
+            assert!(plan.parameter_columns().iter().any(|p| p == name), "no parameter column {name}");
+        }
+    }
+
+    #[test]
+    fn every_case_records_the_parameters_it_ran_with() {
+        let (flat, source) = meter_out();
+        let study = Study {
+            axes: vec![("supply.p".into(), vec!["5 bar".into(), "0.5 bar".into()])],
+            sets: vec!["piston.mass=2 kg".into()],
+            cycles: Some(1),
+            ..Study::default()
+        };
+        let plan = Plan::new(flat, &source, &study).unwrap();
+        let outcomes = plan.run_cases(plan.selected(), 2, None, &|| {}).unwrap();
+        let t = plan.table(&outcomes);
+        let col = |name: &str| t.header.iter().position(|h| h == name).unwrap_or_else(|| panic!("no column {name}"));
+        let ok = &t.rows[0];
+        assert_eq!(ok[col("error")], Cell::Empty);
+        assert_eq!(ok[col("param:supply.p")], Cell::Num(5e5));
+        assert_eq!(ok[col("param:piston.mass")], Cell::Num(2.0));
+        // derived, default and rest-state values
+        assert_eq!(ok[col("param:bore")], Cell::Num(0.045));
+        assert_eq!(ok[col("param:head.bore")], Cell::Num(0.045));
+        assert_eq!(ok[col("param:rod.p0")], Cell::Num(5e5), "the rod chamber rests at the supply pressure");
+        assert_eq!(ok[col("param:head.orientation")], Cell::Text("extend".into()));
+        assert_eq!(ok[col("param:gas.model")], Cell::Text("ideal".into()));
+        assert_eq!(ok[col("param:simulation.cycles")], Cell::Num(1.0));
+        assert_eq!(ok[col("param:simulation.t_end")], Cell::Num(60.0));
+        assert_eq!(ok[col("param:simulation.method")], Cell::Text("rodas4".into()));
+        assert_eq!(ok[col("set")], Cell::Text("[\"piston.mass=2 kg\"]".into()));
+        assert_eq!(ok[col("model_sha256")], Cell::Text(source.sha256()));
+        assert_eq!(ok[col("model")], Cell::Text(source.name()));
+        // a case whose supply is below the exhaust fails, and still says what it ran with
+        let failed = &t.rows[1];
+        assert!(matches!(&failed[col("error")], Cell::Text(_)), "{:?}", failed[col("error")]);
+        assert_eq!(failed[col("param:supply.p")], Cell::Num(0.5e5));
+        // the table does not depend on the order outcomes arrive in
+        let mut reversed = outcomes.clone();
+        reversed.reverse();
+        assert_eq!(plan.table(&reversed), t);
+        // a raised flag ends the remaining cases at once
+        let cancel = solve::Cancel::new();
+        cancel.cancel();
+        let stopped = plan.run_case(0, Some(&cancel));
+        assert!(stopped.error.as_deref().is_some_and(|e| e.starts_with("cancelled")), "{:?}", stopped.error);
     }
 
     #[test]

@@ -27,13 +27,14 @@ fn pneumo(args: &[&str]) -> Output {
     Command::new(env!("CARGO_BIN_EXE_pneumo")).args(args).output().expect("run pneumo")
 }
 
-/// The shipped manifest with absolute data paths and extra keys, written into `dir`.
+/// The shipped manifest with extra keys, written into `dir` with copies of
+/// its data files (data must lie in the manifest's folder).
 fn manifest_copy(dir: &Scratch, extra: &str) -> PathBuf {
     let text = std::fs::read_to_string(example().join("experiments.json")).expect("manifest");
     let mut v: Value = serde_json::from_str(&text).expect("json");
     for e in v["experiments"].as_array_mut().expect("experiments") {
         let name = e["data"].as_str().expect("data").to_string();
-        e["data"] = Value::String(example().join(name).display().to_string());
+        dir.write(&name, &std::fs::read_to_string(example().join(&name)).expect("data file"));
     }
     let extra: Value = serde_json::from_str(extra).expect("extra json");
     for (k, x) in extra.as_object().expect("object") {

@@ -218,7 +218,8 @@ fn a_stalling_case_is_an_error_row_and_the_others_run() {
     // 1 bar against a 0.98 bar exhaust cannot overcome the 10 N static friction
     assert!(rows[0][err].contains("0 of 2 cycles"), "{:?}", rows[0]);
     for (i, cell) in rows[0].iter().enumerate() {
-        if i > 2 && i != err {
+        // no cycle numbers and no temperature ranges (its parameters are still recorded)
+        if h[i].starts_with("cycle") || h[i].ends_with("_K") {
             assert!(cell.is_empty(), "failed case has a number in {}", h[i]);
         }
     }

@@ -247,9 +247,17 @@ mod tests {
     use super::tests_support::meter_out;
     use super::*;
 
+    /// `"init": {"p0": "4 bar"}` on the rod chamber, as a netlist that does
+    /// not start from rest writes it.
+    fn write_rod_init_p0(flat: &mut FlatNetlist) {
+        component_mut(flat, "rod").unwrap().init.insert("p0".into(), Value::Text("4 bar".into()));
+    }
+
     #[test]
     fn reads_written_values_and_defaults_in_si() {
-        let flat = meter_out();
+        let mut flat = meter_out();
+        // the shipped model starts from rest; give the rod an explicit initial pressure
+        write_rod_init_p0(&mut flat);
         assert!((param_si(&flat, "head", "dead_volume").unwrap() - 20e-6).abs() < 1e-18);
         assert!((param_si(&flat, "flow_control", "C").unwrap() - 13.2e-3 / 60.0 / 1e5).abs() < 1e-20);
         // not written: the block default (switching_time 0, breakaway ratio 1)
@@ -264,6 +272,7 @@ mod tests {
     #[test]
     fn set_then_read_round_trips_and_keeps_init_entries_in_init() {
         let mut flat = meter_out();
+        write_rod_init_p0(&mut flat);
         set_param_si(&mut flat, "friction", "k0", 17.5).unwrap();
         assert_eq!(param_si(&flat, "friction", "k0").unwrap(), 17.5);
         // an initial value written in `init` stays there and reads back

@@ -258,8 +258,10 @@ impl Default for Options {
 pub enum IntegratorError {
     /// The step-size controller asked for a step below `h_min` or below the
     /// round-off limit of `t`.
-    #[error("step size too small at t = {t:e} s: h = {h:e}")]
-    StepSizeTooSmall { t: f64, h: f64 },
+    /// `index` is the component with the largest weighted error in the last
+    /// rejected attempt (the one that keeps the step from growing).
+    #[error("step size fell below {h:e} at t = {t:e} (largest error in component {index})")]
+    StepSizeTooSmall { t: f64, h: f64, index: usize },
     /// `max_steps` accepted steps were taken in one `advance` call.
     #[error("too many steps ({steps}) before reaching the stop time, at t = {t:e}")]
     TooManySteps { t: f64, steps: usize },

@@ -123,6 +123,8 @@ enum Attempt {
 pub struct Rosenbrock {
     opts: Options,
     n: usize,
+    /// Component with the largest weighted error in the last attempt.
+    largest_error: usize,
     // Cached values at the current point (t_cache, y_cache).
     cache_valid: bool,
     jac_valid: bool,
@@ -199,6 +201,7 @@ impl Rosenbrock {
             n: 0,
             cache_valid: false,
             jac_valid: false,
+            largest_error: 0,
             roots_valid: false,
             t_cache: 0.0,
             y_cache: Vec::new(),
@@ -669,10 +672,15 @@ impl Rosenbrock {
         }
         // Error norm with weights atol + rtol·max(|y0|, |y1|).
         let mut s = 0.0;
+        let mut largest = 0.0;
         for i in 0..n {
             let w = self.opts.atol[i] + self.opts.rtol * y[i].abs().max(self.y1[i].abs());
             let r = self.q2[i] / w;
             s += r * r;
+            if r.abs() > largest {
+                largest = r.abs();
+                self.largest_error = i;
+            }
         }
         let err = if n > 0 { (s / n as f64).sqrt() } else { 0.0 };
         Ok(Attempt::Done(err))
@@ -886,7 +894,7 @@ impl Integrator for Rosenbrock {
                     h *= if err.is_finite() { fac } else { FAC_MIN };
                     after_reject = true;
                     if h < floor || failures > MAX_FAILURES {
-                        return Err(IntegratorError::StepSizeTooSmall { t: *t, h });
+                        return Err(IntegratorError::StepSizeTooSmall { t: *t, h, index: self.largest_error });
                     }
                     None
                 }

@@ -611,7 +611,7 @@ fn shrinking_step_gives_step_size_too_small() {
     let r = int.advance(&mut sys, &mut t, &mut y, 2.0, &mut no_obs());
     eprintln!("blow-up: {r:?} at t = {t}, stats {:?}", int.stats());
     match r {
-        Err(IntegratorError::StepSizeTooSmall { t: te, h }) => {
+        Err(IntegratorError::StepSizeTooSmall { t: te, h, .. }) => {
             assert!((te - 1.0).abs() < 1e-3, "t = {te}");
             assert!(h < 1e-6);
         }

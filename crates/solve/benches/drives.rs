@@ -6,7 +6,7 @@
 //! (and, above 40 states, the sparse LU), and for n ≤ 16 also with plain
 //! finite differences and a dense LU, the way the integrator worked before.
 //! The drives have staggered strokes (their events fall at different
-//! instants, as on a real machine); from n = 16 the same circuit with all
+//! instants, as on a real machine); from n = 8 the same circuit with all
 //! drives alike (switching together) is run as well, to separate the cost of
 //! the linear algebra from the cost of the events.
 //! docs/performance.md lists the medians and the fitted exponent k of
@@ -34,7 +34,7 @@ fn bench(c: &mut Criterion) {
         if n <= 16 {
             variants.push((false, true, "dense"));
         }
-        if n >= 16 {
+        if n >= 8 {
             variants.push((true, false, "structured_in_step"));
         }
         for (structured, staggered, label) in variants {

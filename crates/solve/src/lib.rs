@@ -20,6 +20,6 @@ pub use model::{Model, ModelError};
 pub use rest::{RestError, RestReport, RestValue};
 pub use settings::options_from;
 pub use simulate::{
-    simulate, simulate_observed, Balance, Checkpoint, CheckpointKind, EventLog, FinalState, MassState, SimOptions, SimResult, SolveError,
-    StrokeStatistic,
+    simulate, simulate_observed, Balance, Cancel, Checkpoint, CheckpointKind, EventLog, FinalState, MassState, SimOptions, SimResult,
+    SolveError, StrokeStatistic,
 };

@@ -636,6 +636,13 @@ impl Model {
     }
 }
 
+impl Model {
+    /// "component.state" of state `i` (for messages).
+    pub fn state_name(&self, i: usize) -> String {
+        self_state_name(&self.circuit, &self.slots, i)
+    }
+}
+
 fn self_state_name(circuit: &Circuit, slots: &[Slot], i: usize) -> String {
     for (bi, slot) in slots.iter().enumerate() {
         if slot.states.contains(&i) {

@@ -1,8 +1,22 @@
 //! Turning the netlist's simulation settings (with units) into [`SimOptions`].
 
-use crate::simulate::{SimOptions, SolveError};
+use crate::simulate::{Cancel, SimOptions, SolveError};
 use graph::netlist::{Simulation, Value};
+use std::cell::RefCell;
 use units::dim;
+
+thread_local! {
+    static THREAD_CANCEL: RefCell<Option<Cancel>> = const { RefCell::new(None) };
+}
+
+/// Give every [`SimOptions`] that [`options_from`] makes on this thread the
+/// cancellation flag `cancel` (or none). For runs started by code that builds
+/// its own options, such as the `identify` workflow, on threads the caller
+/// owns (the Python package sets it on the threads of a pool it creates for
+/// one analysis, so that Ctrl-C stops every simulation of that analysis).
+pub fn set_thread_cancel(cancel: Option<Cancel>) {
+    THREAD_CANCEL.with(|c| *c.borrow_mut() = cancel);
+}
 
 fn seconds(v: &Option<Value>, name: &str, default: f64) -> Result<f64, SolveError> {
     match v {
@@ -45,10 +59,10 @@ pub fn options_from(sim: &Simulation) -> Result<SimOptions, SolveError> {
         rtol: sim.rtol,
         atol: sim.atol,
         sample_interval,
-        record_steps: false,
         max_step,
         max_events: 100_000,
         method,
-        structured_jacobian: true,
+        cancel: THREAD_CANCEL.with(|c| c.borrow().clone()),
+        ..SimOptions::default()
     })
 }

@@ -16,6 +16,35 @@ use crate::mechanics::{self, Mode};
 use crate::model::{Model, ModelError, N_QUADRATURE};
 use blocks::block::{CycleRecord, EventKind, MechState};
 use ode::{Advance, Dense, Integrator, IntegratorError, OdeSystem, Options, RhsError, RootDirection, Rosenbrock};
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::Arc;
+
+/// A request to stop runs early, shared between the runs and whoever may
+/// cancel them (Ctrl-C in the Python package). Clones share one flag; a run
+/// given one in [`SimOptions::cancel`] looks at it at every evaluation of the
+/// right-hand side and between events, and ends with [`SolveError::Cancelled`].
+#[derive(Debug, Clone, Default)]
+pub struct Cancel(Arc<AtomicBool>);
+
+impl Cancel {
+    pub fn new() -> Self {
+        Self::default()
+    }
+    /// Ask every run holding this flag (or a clone of it) to stop.
+    pub fn cancel(&self) {
+        self.0.store(true, Ordering::Relaxed);
+    }
+    pub fn is_cancelled(&self) -> bool {
+        self.0.load(Ordering::Relaxed)
+    }
+}
+
+/// Two flags are equal when they are the same flag.
+impl PartialEq for Cancel {
+    fn eq(&self, other: &Self) -> bool {
+        Arc::ptr_eq(&self.0, &other.0)
+    }
+}
 
 /// Settings of one run, in SI.
 #[derive(Debug, Clone, PartialEq)]
@@ -43,6 +72,8 @@ pub struct SimOptions {
     /// [`crate::jacobian`]); `false` forces plain finite differences and a
     /// dense LU (for comparisons).
     pub structured_jacobian: bool,
+    /// Stop early when this flag is raised (see [`Cancel`]).
+    pub cancel: Option<Cancel>,
 }
 
 impl Default for SimOptions {
@@ -58,6 +89,7 @@ impl Default for SimOptions {
             max_events: 100_000,
             method: ode::Method::default(),
             structured_jacobian: true,
+            cancel: None,
         }
     }
 }
@@ -247,6 +279,11 @@ pub enum SolveError {
     Model(#[from] ModelError),
     #[error("integration failed: {0}")]
     Integrator(#[from] IntegratorError),
+    /// The step-size controller gave up: the state named had the largest
+    /// weighted error (usually the component whose parameters make the
+    /// problem ill-posed or whose time scale is far below the others).
+    #[error("integration failed: step size fell below {h:.1e} s at t = {t} s (largest error in {state}; check that component's parameters, or raise simulation.rtol)")]
+    StepTooSmall { t: f64, h: f64, state: String },
     #[error("more than {limit} events by t = {t} s (chattering between modes?)")]
     TooManyEvents { t: f64, limit: usize },
     #[error("at t = {t} s the event conditions of {roots} still hold after handling them {rounds} times")]
@@ -255,6 +292,8 @@ pub enum SolveError {
     Settings(String),
     #[error("{0}")]
     Rest(#[from] crate::rest::RestError),
+    #[error("cancelled at t = {t} s")]
+    Cancelled { t: f64 },
 }
 
 /// The model seen by the integrator.
@@ -264,11 +303,15 @@ struct System<'a> {
     /// The Jacobian's structure, when it pays (see [`crate::jacobian`]).
     structure: Option<&'a Structure>,
     jacobian_work: &'a mut Workspace,
+    cancel: Option<&'a Cancel>,
 }
 
 impl System<'_> {
     /// One evaluation of the model for f (and the root functions if asked).
     fn eval_both(&mut self, t: f64, y: &[f64], dydt: &mut [f64], g: Option<&mut [f64]>) -> Result<(), RhsError> {
+        if self.cancel.is_some_and(Cancel::is_cancelled) {
+            return Err(RhsError("cancelled".into()));
+        }
         match self.model.eval(t, y, Some(dydt), g) {
             Ok(()) => {
                 self.error = None;
@@ -465,13 +508,22 @@ fn run(model: &mut Model, opts: &SimOptions, mut observer: Option<&mut dyn FnMut
     let mut finished = false;
     let mut step_ends: Vec<(f64, Vec<f64>)> = Vec::new();
     while !finished {
+        if opts.cancel.as_ref().is_some_and(Cancel::is_cancelled) {
+            return Err(SolveError::Cancelled { t });
+        }
         let t_time_event = model.circuit.instances.iter().filter_map(|i| i.block.next_time_event(t)).fold(f64::INFINITY, f64::min);
         let t_stop = opts.t_end.min(t_time_event);
         let mut samples: Vec<(f64, Vec<f64>)> = Vec::new();
         let observing = observer.is_some();
         step_ends.clear();
         let advance = {
-            let mut sys = System { model, error: None, structure: structure.as_ref(), jacobian_work: &mut jacobian_work };
+            let mut sys = System {
+                model,
+                error: None,
+                structure: structure.as_ref(),
+                jacobian_work: &mut jacobian_work,
+                cancel: opts.cancel.as_ref(),
+            };
             let interval = opts.sample_interval;
             let record_steps = opts.record_steps && interval <= 0.0;
             let mut dense_observer = |d: &dyn Dense| {
@@ -500,7 +552,11 @@ fn run(model: &mut Model, opts: &SimOptions, mut observer: Option<&mut dyn FnMut
             let r = integrator.advance(&mut sys, &mut t, &mut y, t_stop, &mut dense_observer);
             match (r, sys.error.take()) {
                 (Ok(a), _) => a,
+                (Err(_), _) if opts.cancel.as_ref().is_some_and(Cancel::is_cancelled) => return Err(SolveError::Cancelled { t }),
                 (Err(_), Some(model_error)) => return Err(model_error.into()),
+                (Err(IntegratorError::StepSizeTooSmall { t, h, index }), None) => {
+                    return Err(SolveError::StepTooSmall { t, h, state: sys.model.state_name(index) })
+                }
                 (Err(e), None) => return Err(e.into()),
             }
         };

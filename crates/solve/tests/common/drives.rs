@@ -59,4 +59,3 @@ pub fn drives(n: usize, staggered: bool) -> graph::FlatNetlist {
     let _ = std::fs::remove_dir_all(&dir);
     flat
 }
-

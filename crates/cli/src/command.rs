@@ -1,0 +1,115 @@
+//! The `pneumo` command line as a library function: argument parsing and
+//! dispatch to the command modules, one-line errors and exit statuses. Used
+//! by the binary (`src/main.rs`) and by the Python package (`python -m
+//! pneumo`), so both are the same program.
+
+use crate::{check, conductance, discrepancy, load, plot, simulate, sweep};
+use clap::{Parser, Subcommand};
+
+/// Simulate pneumatic circuits written as JSON netlists.
+#[derive(Parser, Debug)]
+#[command(name = "pneumo", version, about, long_about = None)]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+    /// Most components a circuit may expand to (subsystems included).
+    #[arg(long = "max-components", global = true, value_name = "N", default_value_t = graph::expand::DEFAULT_MAX_COMPONENTS)]
+    max_components: usize,
+    /// Memory a run may plan to use [MiB] (result traces, the solver's matrices); larger runs are refused before they start.
+    #[arg(long = "max-memory", global = true, value_name = "MiB", default_value_t = load::DEFAULT_MAX_MEMORY_MIB)]
+    max_memory: u64,
+}
+
+#[derive(Subcommand, Debug)]
+enum Command {
+    /// Check a netlist: wiring, units, causality; print the causality table.
+    Check(check::CheckArgs),
+    /// Simulate a netlist and write traces, a summary and plots.
+    Simulate(simulate::SimulateArgs),
+    /// Run a full-factorial parameter study in parallel.
+    Sweep(sweep::SweepArgs),
+    /// Join the outputs of sweep shards into one file.
+    Merge(sweep::MergeArgs),
+    /// Plot signals from result CSV files, or a sweep.
+    Plot(plot::PlotArgs),
+    /// Estimate sonic conductance C (and b) from a measured discharge of a known volume (paper Eq. 36).
+    Conductance(conductance::ConductanceArgs),
+    /// Find where simulation and measurement disagree, name the missing effect, add it, show the gap shrink.
+    Discrepancy(discrepancy::DiscrepancyArgs),
+    /// Print the JSON Schema of the netlist format.
+    Schema,
+    /// List the block types and their parameters.
+    Blocks,
+}
+
+/// Run `pneumo` with these arguments (the first is the program name) and
+/// return its exit status (0 ok, 1 error, 2 usage error, 3 incomplete run).
+/// Errors are printed as one line on stderr.
+pub fn run<I, T>(args: I) -> u8
+where
+    I: IntoIterator<Item = T>,
+    T: Into<std::ffi::OsString> + Clone,
+{
+    let cli = match Cli::try_parse_from(args) {
+        Ok(cli) => cli,
+        Err(e) => return usage_error(e),
+    };
+    load::set_limits(load::Limits { max_components: cli.max_components, max_memory_mib: cli.max_memory });
+    let result = match cli.command {
+        Command::Check(a) => check::run(&a),
+        Command::Simulate(a) => simulate::run(&a),
+        Command::Sweep(a) => sweep::run(&a),
+        Command::Merge(a) => sweep::merge(&a),
+        Command::Plot(a) => plot::run(&a),
+        Command::Conductance(a) => conductance::run(&a),
+        Command::Discrepancy(a) => discrepancy::run(&a),
+        Command::Schema => {
+            println!("{}", serde_json::to_string_pretty(&graph::netlist::schema()).unwrap_or_default());
+            Ok(())
+        }
+        Command::Blocks => {
+            print!("{}", check::block_listing());
+            Ok(())
+        }
+    };
+    match result {
+        Ok(()) => 0,
+        Err(e) => {
+            eprintln!("error: {}", one_line(&e.to_string()));
+            e.exit_code()
+        }
+    }
+}
+
+/// A message as one line: control characters (newlines, terminal escapes)
+/// from any input it quotes are shown escaped.
+pub fn one_line(message: &str) -> String {
+    message.chars().map(|c| if c.is_control() { format!("\\u{{{:x}}}", c as u32) } else { c.to_string() }).collect()
+}
+
+/// clap's errors in one line (its first line, with the command to get help);
+/// `--help` and `--version` keep their full text on stdout.
+fn usage_error(e: clap::Error) -> u8 {
+    use clap::error::ErrorKind;
+    match e.kind() {
+        ErrorKind::DisplayHelp | ErrorKind::DisplayVersion | ErrorKind::DisplayHelpOnMissingArgumentOrSubcommand => {
+            let _ = e.print();
+            0
+        }
+        _ => {
+            // the message is the text before clap's "Usage:" and tip lines
+            let text = e.render().to_string();
+            let lines: Vec<&str> = text
+                .lines()
+                .map(str::trim)
+                .take_while(|l| !l.starts_with("Usage:") && !l.starts_with("For more information"))
+                .filter(|l| !l.is_empty() && !l.starts_with("tip:"))
+                .collect();
+            let joined = lines.join(" ");
+            let message = joined.strip_prefix("error: ").unwrap_or(&joined);
+            let message = if message.is_empty() { "invalid arguments" } else { message };
+            eprintln!("error: {} (see pneumo --help)", one_line(message));
+            2
+        }
+    }
+}

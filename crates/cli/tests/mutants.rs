@@ -1,0 +1,282 @@
+//! Seeded netlist mutants through `pneumo check` and `pneumo simulate`: a
+//! mutation fuzzer for the netlist reader, the circuit builder and the
+//! solver's guards.
+//!
+//! Each mutant starts from a shipped model (`models/*.json`) and applies one
+//! to three edits: structural ones on the parsed JSON (drop, duplicate or
+//! retype a component, rewire a connection, replace a parameter or setting by
+//! a hostile value — negative, zero, huge, non-finite, wrong unit, an
+//! expression with a cycle or an unknown name, control characters) and
+//! textual ones on the bytes (truncate, flip, insert). Every run must end
+//! cleanly: exit 0, or exit 1/2/3 with exactly one non-empty `error:` line on
+//! stderr (warnings aside); never a panic (101), a signal or a hang (each
+//! run has a 60 s limit); an output that is not complete is not written.
+//!
+//! CI runs `PNEUMO_MUTANTS` (default 60) mutants from a fixed seed; the long
+//! run of docs/reliability.md is
+//! `PNEUMO_MUTANTS=2000 cargo test --release -p pneumo-cli --test mutants -- --nocapture`.
+
+mod common;
+
+use common::Scratch;
+use serde_json::Value;
+use std::path::Path;
+use std::process::{Command, Output, Stdio};
+use std::time::{Duration, Instant};
+
+/// xorshift64*: a small deterministic generator (no dependency, same
+/// sequence on every machine).
+struct Rng(u64);
+impl Rng {
+    fn next(&mut self) -> u64 {
+        self.0 ^= self.0 >> 12;
+        self.0 ^= self.0 << 25;
+        self.0 ^= self.0 >> 27;
+        self.0.wrapping_mul(0x2545_f491_4f6c_dd1d)
+    }
+    fn below(&mut self, n: usize) -> usize {
+        (self.next() % n.max(1) as u64) as usize
+    }
+}
+
+const HOSTILE_VALUES: &[&str] = &[
+    "0",
+    "-1",
+    "-4 bar",
+    "1e308",
+    "1e999 bar",
+    "nan",
+    "inf",
+    "-inf K",
+    "",
+    "4 m",
+    "3 furlongs",
+    "= nonsense_name * 2",
+    "= supply.p + 1 m",
+    "= 1/0",
+    "bar 4",
+    "4 bar bar",
+    "\u{1b}[31mred\u{0}",
+    "1e-300 L",
+    "0 K",
+    "-273.15 degC",
+];
+
+fn hostile_json(rng: &mut Rng) -> Value {
+    match rng.below(8) {
+        0 => Value::from(-1.0),
+        1 => Value::from(0),
+        2 => Value::from(1e300),
+        3 => Value::Null,
+        4 => Value::Bool(true),
+        5 => serde_json::json!([1, "x", {"a": null}]),
+        6 => serde_json::json!({"nested": {"deep": [[[]]]}}),
+        _ => Value::from(HOSTILE_VALUES[rng.below(HOSTILE_VALUES.len())]),
+    }
+}
+
+/// Every (object, key) and (array, index) path in `v`.
+fn paths(v: &Value, here: &mut Vec<String>, out: &mut Vec<Vec<String>>) {
+    match v {
+        Value::Object(m) => {
+            for (k, c) in m {
+                here.push(k.clone());
+                out.push(here.clone());
+                paths(c, here, out);
+                here.pop();
+            }
+        }
+        Value::Array(a) => {
+            for (i, c) in a.iter().enumerate() {
+                here.push(i.to_string());
+                out.push(here.clone());
+                paths(c, here, out);
+                here.pop();
+            }
+        }
+        _ => {}
+    }
+}
+
+fn parent_mut<'a>(v: &'a mut Value, path: &[String]) -> Option<&'a mut Value> {
+    let mut cur = v;
+    for p in &path[..path.len() - 1] {
+        cur = match cur {
+            Value::Object(m) => m.get_mut(p)?,
+            Value::Array(a) => a.get_mut(p.parse::<usize>().ok()?)?,
+            _ => return None,
+        };
+    }
+    Some(cur)
+}
+
+/// One structural edit of the parsed netlist.
+fn mutate_json(v: &mut Value, rng: &mut Rng) {
+    let mut all = Vec::new();
+    paths(v, &mut Vec::new(), &mut all);
+    if all.is_empty() {
+        return;
+    }
+    let path = all[rng.below(all.len())].clone();
+    let last = path.last().cloned().unwrap_or_default();
+    let donor = {
+        let d = &all[rng.below(all.len())];
+        let mut cur = &*v;
+        for p in d {
+            cur = match cur {
+                Value::Object(m) => &m[p],
+                Value::Array(a) => &a[p.parse::<usize>().unwrap()],
+                _ => break,
+            };
+        }
+        cur.clone()
+    };
+    let Some(parent) = parent_mut(v, &path) else { return };
+    match (parent, rng.below(5)) {
+        (Value::Object(m), 0) => {
+            m.remove(&last);
+        }
+        (Value::Array(a), 0) => {
+            if let Ok(i) = last.parse::<usize>() {
+                if i < a.len() {
+                    a.remove(i);
+                }
+            }
+        }
+        (Value::Array(a), 1) => {
+            if let Ok(i) = last.parse::<usize>() {
+                if let Some(x) = a.get(i).cloned() {
+                    a.push(x); // a duplicated component or connection
+                }
+            }
+        }
+        (Value::Object(m), 2) => {
+            m.insert(last, donor); // a value from elsewhere in the file (wrong kind, a real id, ...)
+        }
+        (Value::Array(a), 2) => {
+            if let Ok(i) = last.parse::<usize>() {
+                if i < a.len() {
+                    a[i] = donor;
+                }
+            }
+        }
+        (Value::Object(m), _) => {
+            m.insert(last, hostile_json(rng));
+        }
+        (Value::Array(a), _) => {
+            if let Ok(i) = last.parse::<usize>() {
+                if i < a.len() {
+                    a[i] = hostile_json(rng);
+                }
+            }
+        }
+        _ => {}
+    }
+}
+
+/// One edit of the bytes.
+fn mutate_text(t: &mut Vec<u8>, rng: &mut Rng) {
+    if t.is_empty() {
+        return;
+    }
+    let i = rng.below(t.len());
+    match rng.below(3) {
+        0 => t.truncate(i),
+        1 => t[i] ^= 1 << rng.below(8),
+        _ => t.insert(i, [b'{', b'"', b'\\', b'\0', 0xff, b']', b'9'][rng.below(7)]),
+    }
+}
+
+fn pneumo(dir: &Path, args: &[&str]) -> Output {
+    let mut child = Command::new(env!("CARGO_BIN_EXE_pneumo"))
+        .args(args)
+        .current_dir(dir)
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("start pneumo");
+    let start = Instant::now();
+    loop {
+        if child.try_wait().expect("wait").is_some() {
+            return child.wait_with_output().expect("output");
+        }
+        if start.elapsed() > Duration::from_secs(60) {
+            let _ = child.kill();
+            panic!("pneumo {args:?} in {} did not finish within 60 s", dir.display());
+        }
+        std::thread::sleep(Duration::from_millis(10));
+    }
+}
+
+/// The run ended cleanly; returns whether it succeeded.
+fn clean(out: &Output, what: &str) -> bool {
+    let err = String::from_utf8_lossy(&out.stderr);
+    match out.status.code() {
+        Some(0) => true,
+        Some(1..=3) => {
+            let lines: Vec<&str> = err.lines().filter(|l| !l.starts_with("warning: ")).collect();
+            assert!(
+                lines.len() == 1 && lines[0].starts_with("error: ") && lines[0].len() > "error: ".len(),
+                "{what}: expected one error line, got:\n{err}"
+            );
+            assert!(!lines[0].chars().any(|c| c.is_control()), "{what}: control character in {:?}", lines[0]);
+            false
+        }
+        code => panic!("{what}: exit {code:?} (101 is a panic, None a signal); stderr:\n{err}"),
+    }
+}
+
+#[test]
+fn seeded_netlist_mutants_end_cleanly() {
+    let n: usize = std::env::var("PNEUMO_MUTANTS").ok().and_then(|s| s.parse().ok()).unwrap_or(60);
+    let models = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../models");
+    let mut sources: Vec<(String, String)> = std::fs::read_dir(&models)
+        .unwrap()
+        .filter_map(|e| e.ok())
+        .map(|e| e.path())
+        .filter(|p| p.extension().is_some_and(|x| x == "json"))
+        .map(|p| (p.file_name().unwrap().to_string_lossy().into_owned(), std::fs::read_to_string(&p).unwrap()))
+        .collect();
+    sources.sort();
+    let dir = Scratch::new("mutants");
+    // subsystems refer to lib/cylinder.json relative to the model
+    std::fs::create_dir_all(dir.0.join("lib")).unwrap();
+    std::fs::copy(models.join("lib/cylinder.json"), dir.0.join("lib/cylinder.json")).unwrap();
+    let mut rng = Rng(0x9e37_79b9_7f4a_7c15);
+    let (mut ok_check, mut ok_sim) = (0, 0);
+    for k in 0..n {
+        let (name, text) = &sources[rng.below(sources.len())];
+        let mut bytes = text.clone().into_bytes();
+        if rng.below(4) == 0 {
+            mutate_text(&mut bytes, &mut rng);
+        } else {
+            let mut v: Value = serde_json::from_str(text).unwrap();
+            for _ in 0..1 + rng.below(3) {
+                mutate_json(&mut v, &mut rng);
+            }
+            bytes = serde_json::to_vec_pretty(&v).unwrap();
+        }
+        let file = dir.0.join("mutant.json");
+        std::fs::write(&file, &bytes).unwrap();
+        let what = format!("mutant {k} of {name}");
+        ok_check += clean(&pneumo(&dir.0, &["check", "mutant.json"]), &format!("{what}: check")) as usize;
+        let out = dir.0.join("out.csv");
+        let _ = std::fs::remove_file(&out);
+        let sim = pneumo(&dir.0, &["simulate", "mutant.json", "--t-end", "0.3", "--out", "out.csv"]);
+        let succeeded = clean(&sim, &format!("{what}: simulate"));
+        ok_sim += succeeded as usize;
+        if sim.status.code() == Some(1) || sim.status.code() == Some(2) {
+            assert!(!out.exists(), "{what}: a failed simulate left out.csv");
+        }
+        let leftovers: Vec<_> = std::fs::read_dir(&dir.0)
+            .unwrap()
+            .filter_map(|e| e.ok())
+            .map(|e| e.file_name().to_string_lossy().into_owned())
+            .filter(|f| !matches!(f.as_str(), "mutant.json" | "out.csv" | "lib"))
+            .collect();
+        assert!(leftovers.is_empty(), "{what}: left behind {leftovers:?}");
+    }
+    println!("{n} mutants: {ok_check} passed check, {ok_sim} simulated; every other run ended with one error line");
+    // the mutator must not be so destructive that nothing gets past the reader
+    assert!(ok_check > 0 && n >= 20 || n < 20, "no mutant passed check");
+}

@@ -1,0 +1,80 @@
+"""The discrepancy workflow from Python, on the shipped example (the
+meter-out circuit with a hidden piston seal leak of 0.3 L/(min·bar)),
+restricted to two candidate effects to stay fast, as the CLI's test."""
+
+from __future__ import annotations
+
+import json
+import shutil
+
+import pytest
+
+import pneumo
+
+L_MIN_BAR = 1e-3 / 60 / 1e5
+
+
+@pytest.fixture
+def manifest(root, tmp_path):
+    example = root / "models" / "examples" / "discrepancy"
+    doc = json.loads((example / "experiments.json").read_text())
+    for e in doc["experiments"]:
+        shutil.copy(example / e["data"], tmp_path / e["data"])
+    doc.update({"effects": ["piston_seal_leak", "valve_delay"], "max_effects": 1})
+    path = tmp_path / "experiments.json"
+    path.write_text(json.dumps(doc))
+    return path
+
+
+def test_names_the_hidden_leak_and_returns_a_runnable_model(meter_out, manifest, tmp_path):
+    found = pneumo.discrepancy(meter_out, manifest, report=tmp_path / "report")
+    assert found.effects == ["piston_seal_leak"], found.verdict
+    c = found.effect_parameters["piston_seal_leak"]["C"]
+    assert abs(c / L_MIN_BAR - 0.3) < 0.03, c / L_MIN_BAR
+    est = found.estimates
+    assert "piston_seal_leak.C" in est.index and est.loc["piston_seal_leak.C", "ci95_low"] < c < est.loc["piston_seal_leak.C", "ci95_high"]
+    assert set(found.candidates["effect"]) == {"piston_seal_leak", "valve_delay"}
+    assert (found.rmse["after"] < found.rmse["baseline"]).all()
+    assert found.summary["verdict"] == found.verdict and "piston_seal_leak" in repr(found)
+    # the augmented model runs, with the leak in it
+    model = found.model
+    assert "piston_seal_leak" in model.to_json() or any(k.startswith("seal") for k in model.parameters)
+    r = model.simulate(cycles=1)
+    assert len(r.summary["cycles"]) == 1
+    names = {p.name for p in (tmp_path / "report").iterdir()}
+    assert {"report.md", "summary.json", "model_with_piston_seal_leak.json"} <= names
+    assert sorted(found.report_files) == sorted(str(tmp_path / "report" / n) for n in names)
+
+
+def test_bad_manifests_are_data_errors(meter_out, tmp_path):
+    bad = tmp_path / "experiments.json"
+    bad.write_text('{"experiments": [')
+    with pytest.raises(pneumo.DataError, match="experiments.json"):
+        pneumo.discrepancy(meter_out, bad)
+    with pytest.raises(pneumo.FileError):
+        pneumo.discrepancy(meter_out, tmp_path / "missing.json")
+
+
+def test_ctrl_c_stops_the_whole_analysis(python_child):
+    import signal
+    import time
+
+    child = python_child(
+        """
+import sys, time, pneumo
+print("ready", flush=True)
+try:
+    pneumo.discrepancy("models/meter_out.json", "models/examples/discrepancy/experiments.json")
+except KeyboardInterrupt:
+    print("interrupted", flush=True)
+    sys.exit(42)
+print("finished", flush=True)
+"""
+    )
+    assert child.stdout.readline().strip() == "ready"
+    time.sleep(1.5)
+    sent = time.monotonic()
+    child.send_signal(signal.SIGINT)
+    out, err = child.communicate(timeout=60)
+    assert child.returncode == 42, f"stdout {out!r} stderr {err!r}"
+    assert time.monotonic() - sent < 10, "every simulation of the analysis is cancelled"
