@@ -119,6 +119,9 @@ impl Block for Cycler {
     fn ports(&self) -> &[PortSpec] {
         PORTS
     }
+    fn gas_role(&self) -> GasRole {
+        GasRole::None
+    }
     fn signal_outputs(&self, _ctx: &Ctx, out: &mut [f64]) {
         out[0] = self.command();
     }
@@ -178,6 +181,7 @@ impl Block for Cycler {
                 let finished = self.cycles > 0 && self.done >= self.cycles;
                 let next = if finished { t } else { t + self.dwell_retracted };
                 outcome.cycle = Some(CycleRecord {
+                    controller: String::new(),
                     start: self.cycle_start,
                     extend: self.extend_time,
                     retract,
@@ -203,6 +207,9 @@ impl Block for Cycler {
     }
     fn finished(&self) -> bool {
         self.phase == Phase::Done
+    }
+    fn counts_cycles(&self) -> bool {
+        true
     }
 }
 

@@ -66,6 +66,9 @@ impl Block for Delay {
     fn ports(&self) -> &[PortSpec] {
         PORTS
     }
+    fn gas_role(&self) -> GasRole {
+        GasRole::None
+    }
     fn states(&self) -> &[StateSpec] {
         if self.delay > 0.0 {
             STATES

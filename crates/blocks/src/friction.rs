@@ -118,6 +118,9 @@ impl Block for Friction {
     fn ports(&self) -> &[PortSpec] {
         PORTS
     }
+    fn gas_role(&self) -> GasRole {
+        GasRole::None
+    }
     fn forces(&self, ctx: &Ctx, out: &mut [PortForce]) {
         let (p1, p2) = (ctx.signals[0], ctx.signals[1]);
         let v = ctx.mechanical[0].v;

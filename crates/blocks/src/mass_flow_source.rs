@@ -41,6 +41,9 @@ impl Block for MassFlowSource {
     fn ports(&self) -> &[PortSpec] {
         PORTS
     }
+    fn gas_role(&self) -> GasRole {
+        GasRole::Boundary
+    }
     fn flows(&self, ctx: &Ctx, out: &mut [PortFlow]) {
         let node = ctx.pneumatic[0];
         let h = if self.mdot >= 0.0 { ctx.gas.enthalpy(ctx.gas.density(node.p, self.t), self.t) } else { node.h };

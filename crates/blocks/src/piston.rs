@@ -111,6 +111,9 @@ impl Block for Piston {
     fn ports(&self) -> &[PortSpec] {
         PORTS
     }
+    fn gas_role(&self) -> GasRole {
+        GasRole::None
+    }
     fn states(&self) -> &[StateSpec] {
         STATES
     }

@@ -50,6 +50,9 @@ impl Block for PressureSource {
     fn ports(&self) -> &[PortSpec] {
         PORTS
     }
+    fn gas_role(&self) -> GasRole {
+        GasRole::Boundary
+    }
     fn effort(&self, ctx: &Ctx, out: &mut [GasState]) {
         out[0] = ctx.gas.state_pt(self.p, self.t);
     }

@@ -30,7 +30,8 @@ use crate::iso6358::FlowCharacteristic;
 use crate::params::{ParamSpec, Params, Range};
 use units::dim;
 
-pub const PARAMS: &[ParamSpec] = &[
+pub const PARAMS: &[ParamSpec] = crate::param_set!(
+    &[
     ParamSpec::quantity("C", dim::CONDUCTANCE, None, Range::Positive, "L/min/bar", "throttle sonic conductance"),
     ParamSpec::quantity("b", dim::DIMENSIONLESS, None, Range::OpenUnit, "", "throttle critical pressure ratio"),
     ParamSpec::quantity("check_C", dim::CONDUCTANCE, None, Range::Positive, "L/min/bar", "check valve sonic conductance"),
@@ -44,11 +45,9 @@ pub const PARAMS: &[ParamSpec] = &[
         "check valve opening pressure difference",
     ),
     ParamSpec::quantity("opening_range", dim::PRESSURE, Some(1000.0), Range::Positive, "bar", "check valve: pressure rise to fully open"),
-    ParamSpec::quantity("m", dim::DIMENSIONLESS, Some(0.5), Range::Closed(0.1, 1.0), "", "subsonic index"),
-    ParamSpec::quantity("b_lam", dim::DIMENSIONLESS, Some(0.999), Range::OpenUnit, "", "laminar pressure ratio"),
-    ParamSpec::quantity("T_ref", dim::TEMPERATURE, Some(293.15), Range::GasTemperature, "K", "reference temperature"),
-    ParamSpec::quantity("rho_ref", dim::DENSITY, Some(1.185), Range::Positive, "kg/m3", "reference density"),
-];
+    ],
+    crate::iso6358::SHARED
+);
 pub const PORTS: &[PortSpec] = &[
     PortSpec::new("a", PortKind::PneumaticFlow, "free-flow inlet (valve side in meter-out)"),
     PortSpec::new("b", PortKind::PneumaticFlow, "free-flow outlet (cylinder side in meter-out)"),
@@ -87,6 +86,9 @@ impl Block for SpeedControlValve {
     }
     fn ports(&self) -> &[PortSpec] {
         PORTS
+    }
+    fn gas_role(&self) -> GasRole {
+        GasRole::Restriction
     }
     fn flows(&self, ctx: &Ctx, out: &mut [PortFlow]) {
         let (mut f, check) = self.paths(&ctx.pneumatic[0], &ctx.pneumatic[1]);

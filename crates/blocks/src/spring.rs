@@ -47,6 +47,9 @@ impl Block for Spring {
     fn ports(&self) -> &[PortSpec] {
         PORTS
     }
+    fn gas_role(&self) -> GasRole {
+        GasRole::None
+    }
     fn forces(&self, ctx: &Ctx, out: &mut [PortForce]) {
         out[0] = PortForce { applied: self.force(ctx.mechanical[0].x), friction: None };
     }
