@@ -346,6 +346,9 @@ pub enum Fact {
     CommandLevels(Vec<f64>),
     /// An on/off command input: released at `released`, actuated at `actuated`.
     CommandThresholds { released: f64, actuated: f64 },
+    /// Outlet pressure [Pa] a regulator is set to, stated at its supply
+    /// port: the supply that reaches this port must be higher (an error otherwise).
+    SetPressure(f64),
 }
 
 /// What a block does with gas (see the module documentation).
@@ -382,6 +385,12 @@ pub trait Block: std::fmt::Debug + Send + Sync {
     fn states(&self) -> &[StateSpec] {
         &[]
     }
+    /// Initial states that follow from the block's inputs at t = 0, for a
+    /// block whose states track an input (a sensor's lag starts at the value
+    /// it reads, a filter at its input). Called once the other initial states
+    /// are set and the circuit has been evaluated with them; `states` holds
+    /// the values [`Block::initial_states`] gave.
+    fn initial_states_from_inputs(&self, _ctx: &Ctx, _states: &mut [f64]) {}
     /// Typical magnitude of each state, for absolute tolerances.
     fn state_scales(&self, _init: &[f64], _out: &mut [f64]) {}
     /// Initial values of the states.

@@ -407,6 +407,17 @@ impl Block for Chamber {
     }
 }
 
+/// Registry entry of `chamber`.
+pub const TYPE: crate::registry::BlockType = crate::registry::BlockType {
+    name: "chamber",
+    family: crate::registry::Family::Capacities,
+    doc: "variable-volume pneumatic capacity (Eq. 5-17)",
+    params: PARAMS,
+    ports: PORTS_CYLINDER,
+    outputs: OUTPUTS,
+    build: |p| crate::registry::boxed(Chamber::from_params(p)),
+};
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -95,6 +95,17 @@ impl Block for CheckValve {
     }
 }
 
+/// Registry entry of `check_valve`.
+pub const TYPE: crate::registry::BlockType = crate::registry::BlockType {
+    name: "check_valve",
+    family: crate::registry::Family::Restrictions,
+    doc: "one-way restriction with cracking pressure",
+    params: PARAMS,
+    ports: PORTS,
+    outputs: OUTPUTS,
+    build: |p| crate::registry::boxed(CheckValve::from_params(p)),
+};
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -96,6 +96,17 @@ impl Block for Conductance {
     }
 }
 
+/// Registry entry of `conductance`.
+pub const TYPE: crate::registry::BlockType = crate::registry::BlockType {
+    name: "conductance",
+    family: crate::registry::Family::Restrictions,
+    doc: "ISO 6358 restriction (Eq. 33-35)",
+    params: PARAMS,
+    ports: PORTS,
+    outputs: OUTPUTS,
+    build: |p| crate::registry::boxed(Conductance::from_params(p)),
+};
+
 #[cfg(test)]
 mod tests {
     use super::*;

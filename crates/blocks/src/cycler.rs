@@ -213,6 +213,17 @@ impl Block for Cycler {
     }
 }
 
+/// Registry entry of `cycler`.
+pub const TYPE: crate::registry::BlockType = crate::registry::BlockType {
+    name: "cycler",
+    family: crate::registry::Family::Control,
+    doc: "limit-switch cycler (extend/retract for N cycles)",
+    params: PARAMS,
+    ports: PORTS,
+    outputs: &[],
+    build: |p| crate::registry::boxed(Cycler::from_params(p)),
+};
+
 #[cfg(test)]
 mod tests {
     use super::*;

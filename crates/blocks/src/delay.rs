@@ -119,6 +119,17 @@ impl Block for Delay {
     }
 }
 
+/// Registry entry of `delay`.
+pub const TYPE: crate::registry::BlockType = crate::registry::BlockType {
+    name: "delay",
+    family: crate::registry::Family::Control,
+    doc: "transport delay of a piecewise-constant signal",
+    params: PARAMS,
+    ports: PORTS,
+    outputs: &[],
+    build: |p| crate::registry::boxed(Delay::from_params(p)),
+};
+
 #[cfg(test)]
 mod tests {
     use super::*;

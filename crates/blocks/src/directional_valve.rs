@@ -219,6 +219,39 @@ impl Block for DirectionalValve {
     }
 }
 
+/// Registry entry of `valve_5_2`.
+pub const TYPE_5_2: crate::registry::BlockType = crate::registry::BlockType {
+    name: "valve_5_2",
+    family: crate::registry::Family::DirectionalValves,
+    doc: "5/2 directional valve",
+    params: PARAMS_5_2,
+    ports: PORTS_5_2,
+    outputs: OUTPUTS,
+    build: |p| crate::registry::boxed(DirectionalValve::five_two(p)),
+};
+
+/// Registry entry of `valve_3_2`.
+pub const TYPE_3_2: crate::registry::BlockType = crate::registry::BlockType {
+    name: "valve_3_2",
+    family: crate::registry::Family::DirectionalValves,
+    doc: "3/2 directional valve",
+    params: PARAMS_3_2,
+    ports: PORTS_3_2,
+    outputs: OUTPUTS,
+    build: |p| crate::registry::boxed(DirectionalValve::three_two(p)),
+};
+
+/// Registry entry of `valve_2_2`.
+pub const TYPE_2_2: crate::registry::BlockType = crate::registry::BlockType {
+    name: "valve_2_2",
+    family: crate::registry::Family::DirectionalValves,
+    doc: "2/2 directional valve",
+    params: PARAMS_2_2,
+    ports: PORTS_2_2,
+    outputs: OUTPUTS,
+    build: |p| crate::registry::boxed(DirectionalValve::two_two(p)),
+};
+
 #[cfg(test)]
 mod tests {
     use super::*;

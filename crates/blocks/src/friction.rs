@@ -155,6 +155,17 @@ pub fn breaks_away(applied: f64, breakaway: f64) -> Option<f64> {
     }
 }
 
+/// Registry entry of `friction`.
+pub const TYPE: crate::registry::BlockType = crate::registry::BlockType {
+    name: "friction",
+    family: crate::registry::Family::Mechanics,
+    doc: "seal friction, Eq. 37, stick-slip (Karnopp 1985)",
+    params: PARAMS,
+    ports: PORTS,
+    outputs: OUTPUTS,
+    build: |p| crate::registry::boxed(Friction::from_params(p)),
+};
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -52,6 +52,17 @@ impl Block for MassFlowSource {
     }
 }
 
+/// Registry entry of `mass_flow_source`.
+pub const TYPE: crate::registry::BlockType = crate::registry::BlockType {
+    name: "mass_flow_source",
+    family: crate::registry::Family::Sources,
+    doc: "prescribed mass flow into a node",
+    params: PARAMS,
+    ports: PORTS,
+    outputs: &[],
+    build: |p| crate::registry::boxed(MassFlowSource::from_params(p)),
+};
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -171,6 +171,17 @@ impl Block for Piston {
     }
 }
 
+/// Registry entry of `piston`.
+pub const TYPE: crate::registry::BlockType = crate::registry::BlockType {
+    name: "piston",
+    family: crate::registry::Family::Mechanics,
+    doc: "moving mass with end stops",
+    params: PARAMS,
+    ports: PORTS,
+    outputs: OUTPUTS,
+    build: |p| crate::registry::boxed(Piston::from_params(p)),
+};
+
 #[cfg(test)]
 mod tests {
     use super::*;

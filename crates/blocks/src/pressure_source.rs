@@ -61,6 +61,28 @@ impl Block for PressureSource {
     }
 }
 
+/// Registry entry of `pressure_source`.
+pub const TYPE: crate::registry::BlockType = crate::registry::BlockType {
+    name: "pressure_source",
+    family: crate::registry::Family::Sources,
+    doc: "reservoir at fixed p and T (supply); reports the free air it delivers",
+    params: PARAMS,
+    ports: PORTS,
+    outputs: &[],
+    build: |p| crate::registry::boxed(PressureSource::from_params(p, "pressure_source")),
+};
+
+/// Registry entry of `atmosphere`.
+pub const ATMOSPHERE: crate::registry::BlockType = crate::registry::BlockType {
+    name: "atmosphere",
+    family: crate::registry::Family::Sources,
+    doc: "ambient reservoir (exhaust)",
+    params: ATMOSPHERE_PARAMS,
+    ports: PORTS,
+    outputs: &[],
+    build: |p| crate::registry::boxed(PressureSource::from_params(p, "atmosphere")),
+};
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -82,6 +82,17 @@ impl Block for Schedule {
     }
 }
 
+/// Registry entry of `schedule`.
+pub const TYPE: crate::registry::BlockType = crate::registry::BlockType {
+    name: "schedule",
+    family: crate::registry::Family::Control,
+    doc: "time-table command signal",
+    params: PARAMS,
+    ports: PORTS,
+    outputs: &[],
+    build: |p| crate::registry::boxed(Schedule::from_params(p)),
+};
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -107,6 +107,17 @@ impl Block for SpeedControlValve {
     }
 }
 
+/// Registry entry of `speed_control_valve`.
+pub const TYPE: crate::registry::BlockType = crate::registry::BlockType {
+    name: "speed_control_valve",
+    family: crate::registry::Family::Restrictions,
+    doc: "throttle in parallel with a check valve",
+    params: PARAMS,
+    ports: PORTS,
+    outputs: OUTPUTS,
+    build: |p| crate::registry::boxed(SpeedControlValve::from_params(p)),
+};
+
 #[cfg(test)]
 mod tests {
     use super::*;

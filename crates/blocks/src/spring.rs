@@ -61,6 +61,17 @@ impl Block for Spring {
     }
 }
 
+/// Registry entry of `spring`.
+pub const TYPE: crate::registry::BlockType = crate::registry::BlockType {
+    name: "spring",
+    family: crate::registry::Family::Mechanics,
+    doc: "linear return spring",
+    params: PARAMS,
+    ports: PORTS,
+    outputs: OUTPUTS,
+    build: |p| crate::registry::boxed(Spring::from_params(p)),
+};
+
 #[cfg(test)]
 mod tests {
     use super::*;

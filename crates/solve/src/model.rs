@@ -307,6 +307,18 @@ impl Model {
             let ctx = InitCtx { gas: &*gas, mechanical: &slot.mech };
             self.circuit.instances[bi].block.initial_states(&ctx, &mut y[slot.states.clone()]);
         }
+        // states that track an input start at the value of that input
+        if self.eval_detached(0.0, &y, None).is_ok() {
+            for bi in 0..self.slots.len() {
+                let range = self.slots[bi].states.clone();
+                if range.is_empty() {
+                    continue;
+                }
+                let mut own = y[range.clone()].to_vec();
+                self.circuit.instances[bi].block.initial_states_from_inputs(&self.ctx(bi, 0.0, &y), &mut own);
+                y[range].copy_from_slice(&own);
+            }
+        }
         y
     }
 
