@@ -10,7 +10,8 @@
 //!
 //! # Equations
 //! Delivered gas carries h(p_node, T); drawn gas carries the node's h
-//! (upstream enthalpy, as in Eq. 9/10).
+//! (upstream enthalpy, as in Eq. 9/10). The delivered mass is integrated and
+//! reported as free air consumption (ANR litres, ISO 8778), as for a supply.
 
 use crate::block::*;
 use crate::params::{ParamSpec, Params, Range};
@@ -43,6 +44,15 @@ impl Block for MassFlowSource {
     }
     fn gas_role(&self) -> GasRole {
         GasRole::Boundary
+    }
+    fn quadratures(&self) -> &[OutputSpec] {
+        crate::pressure_source::DELIVERED
+    }
+    fn quadrature_rates(&self, _ctx: &Ctx, balances: &Balances, _derivs: &[f64], out: &mut [f64]) {
+        out[0] = -balances.pneumatic[0].mdot;
+    }
+    fn quadrature_statistics(&self, increments: &[f64]) -> Vec<(&'static str, Option<f64>)> {
+        crate::pressure_source::free_air(increments)
     }
     fn flows(&self, ctx: &Ctx, out: &mut [PortFlow]) {
         let node = ctx.pneumatic[0];
