@@ -311,6 +311,19 @@ pub struct InitCtx<'a> {
     pub mechanical: &'a [MechState],
 }
 
+/// A port a block holds at a pressure while the circuit rests (see [`Block::rest_pressure`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct RestPressure {
+    /// The held port, as an index among the block's pneumatic ports.
+    pub port: usize,
+    /// The port the gas comes from, among the pneumatic ports (its temperature is taken).
+    pub from: usize,
+    /// Pressure held [Pa] (absolute).
+    pub pressure: f64,
+    /// Whether gas above that pressure is let out too (a relieving regulator), or only gas below is filled up.
+    pub relieving: bool,
+}
+
 /// Initial values a block leaves open, which a rest-state computation may
 /// choose (those the user gave explicitly are never changed).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
@@ -481,6 +494,12 @@ pub trait Block: std::fmt::Debug + Send + Sync {
     /// Default: the same as [`Block::signal_outputs`].
     fn rest_signal_outputs(&self, ctx: &Ctx, out: &mut [f64]) {
         self.signal_outputs(ctx, out)
+    }
+    /// A pressure this block holds one of its pneumatic ports at while the
+    /// circuit rests (a regulator's outlet at its set pressure), which the
+    /// rest state uses instead of probing the block for open paths.
+    fn rest_pressure(&self, _ctx: &Ctx) -> Option<RestPressure> {
+        None
     }
     /// Initial values left open by the user, which a rest-state computation may set.
     fn free_initial(&self) -> FreeInitial {

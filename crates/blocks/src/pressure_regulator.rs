@@ -142,6 +142,11 @@ impl Regulation {
             out[1] = (y - states[1]) / self.tau;
         }
     }
+    /// What the regulator holds at rest: the outlet at the set pressure, or
+    /// at the supply's if that is lower (the supply passage then stays open).
+    pub fn rest(&self, p_set: f64, ctx: &Ctx) -> RestPressure {
+        RestPressure { port: 1, from: 0, pressure: p_set.min(ctx.pneumatic[0].p), relieving: self.relief.is_some() }
+    }
     pub fn states(&self) -> &'static [StateSpec] {
         if self.tau > 0.0 {
             STATES
@@ -182,6 +187,10 @@ impl Block for PressureRegulator {
     }
     fn facts(&self) -> Vec<(usize, Fact)> {
         vec![(0, Fact::SetPressure(self.p_set))]
+    }
+    /// At rest the outlet stands at the set pressure (or the supply, if lower).
+    fn rest_pressure(&self, ctx: &Ctx) -> Option<RestPressure> {
+        Some(self.regulation.rest(self.p_set, ctx))
     }
     fn states(&self) -> &[StateSpec] {
         self.regulation.states()

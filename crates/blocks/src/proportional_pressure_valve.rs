@@ -115,6 +115,10 @@ impl Block for ProportionalPressureValve {
         self.setpoint.scales(&mut out[..k]);
         out[k..].fill(1.0);
     }
+    /// At rest the outlet stands at the commanded set pressure.
+    fn rest_pressure(&self, ctx: &Ctx) -> Option<RestPressure> {
+        Some(self.regulation.rest(self.command(ctx), ctx))
+    }
     fn initial_states_from_inputs(&self, ctx: &Ctx, states: &mut [f64]) {
         let k = self.n_spool();
         let u = self.command(ctx);

@@ -39,16 +39,23 @@
 //!   them f·Re² is the monotone cubic (Hermite) joining the two laws with
 //!   their slopes, so the friction is continuous and invertible. ρ̄ and μ are
 //!   taken at the mean state of the two sides.
-//! - Without inertia every joint is quasi-steady: ṁ solves Δp = Δp_f(ṁ).
+//! - Without inertia every joint is quasi-steady: the friction flow ṁ_f
+//!   solves Δp = Δp_f(ṁ_f), and the flow passed is limited by the sonic
+//!   flow of the upstream state, ṁ* = A·p₀·√(γ/(RT₀))·(2/(γ+1))^((γ+1)/(2(γ−1))),
+//!   as two resistances in series: ṁ = ṁ_f/√(1 + (ṁ_f/ṁ*)²) (a line
+//!   vented into a low pressure chokes instead of emptying at an unbounded rate).
 //!   With inertia the interior joints integrate the momentum balance
-//!   dṁ/dt = (A/Δx)·(p_i − p_{i+1} − Δp_f(ṁ)); the end half joints stay
+//!   dṁ/dt = (A/Δx)·(p_i − p_{i+1} − Δp(ṁ)), with Δp(ṁ) the drop that
+//!   passes ṁ in steady flow by the same law; the end half joints stay
 //!   quasi-steady.
 //! - Energy flows carry the upstream enthalpy (kinetic energy neglected).
 //!
 //! # Assumptions
-//! Low Mach number (no choking inside the line: size the line so that the
-//! valves, not the hose, are the sonic restrictions); rigid smooth wall;
-//! uniform state within a segment.
+//! Friction law of fully developed incompressible pipe flow, used at the
+//! mean density of each joint: accurate at low Mach number; near sonic
+//! speed the series limit above stands in for Fanno choking (size the line
+//! so that the valves, not the hose, are the sonic restrictions); rigid
+//! smooth wall; uniform state within a segment.
 
 use crate::block::*;
 use crate::chamber::Chamber;
@@ -213,15 +220,49 @@ impl Tube {
         mdot.signum() * phi(mdot.abs() / flow_scale) * kappa / rho
     }
 
-    /// Quasi-steady flow across a joint of length `len` from side a to side b.
-    pub fn joint_flow(&self, a: &GasState, b: &GasState, len: f64) -> PortFlow {
-        let dp = a.p - b.p;
-        if dp == 0.0 || !dp.is_finite() {
+    /// Sonic (choked) mass flow [kg/s] of the bore from an upstream state:
+    /// ṁ* = A·p₀·√(γ/(R T₀))·(2/(γ+1))^((γ+1)/(2(γ−1))) (isentropic critical
+    /// flow, e.g. Anderson, *Modern Compressible Flow*, §5.4).
+    pub fn sonic_flow(&self, gas: &dyn gas::GasModel, up: &GasState) -> f64 {
+        let gamma = gas.gamma(up.rho, up.t);
+        let r = up.p / (up.rho * up.t);
+        let k = (2.0 / (gamma + 1.0)).powf((gamma + 1.0) / (2.0 * (gamma - 1.0)));
+        self.area * up.p * (gamma / (r * up.t)).sqrt() * k
+    }
+
+    /// Quasi-steady flow across a joint of length `len` from side a to side b:
+    /// the friction flow ṁ_f, limited by the sonic flow ṁ* of the upstream
+    /// state as two resistances in series, ṁ = ṁ_f/√(1 + (ṁ_f/ṁ*)²) (the
+    /// line chokes instead of passing an unbounded flow into a low pressure).
+    pub fn joint_flow(&self, gas: &dyn gas::GasModel, a: &GasState, b: &GasState, len: f64) -> PortFlow {
+        let friction = self.friction_flow(a, b, len);
+        if friction == 0.0 {
             return PortFlow::default();
         }
-        let (kappa, flow_scale, rho) = self.friction_scales(a, b, len);
-        let mdot = dp.signum() * phi_inverse(dp.abs() * rho / kappa) * flow_scale;
+        let sonic = self.sonic_flow(gas, if friction > 0.0 { a } else { b });
+        let mdot = friction / (1.0 + (friction / sonic).powi(2)).sqrt();
         PortFlow { mdot, edot: mdot * if mdot >= 0.0 { a.h } else { b.h } }
+    }
+
+    /// Mass flow [kg/s] the wall friction alone lets pass from a to b over length `len` (Δp = Δp_f(ṁ)).
+    pub fn friction_flow(&self, a: &GasState, b: &GasState, len: f64) -> f64 {
+        let dp = a.p - b.p;
+        if dp == 0.0 || !dp.is_finite() {
+            return 0.0;
+        }
+        let (kappa, flow_scale, rho) = self.friction_scales(a, b, len);
+        dp.signum() * phi_inverse(dp.abs() * rho / kappa) * flow_scale
+    }
+
+    /// Pressure drop [Pa] a joint with gas inertia needs to pass `mdot` in
+    /// steady flow: the friction drop of the friction flow that, limited by
+    /// the sonic flow as in [`Tube::joint_flow`], gives `mdot`. It grows without
+    /// bound as `mdot` nears the sonic flow (clipped at 0.9999 of it).
+    pub fn joint_drop(&self, gas: &dyn gas::GasModel, mdot: f64, a: &GasState, b: &GasState, len: f64) -> f64 {
+        let sonic = self.sonic_flow(gas, if mdot >= 0.0 { a } else { b });
+        let ratio = (mdot.abs() / sonic).min(0.9999);
+        let friction = mdot.abs() / (1.0 - ratio * ratio).sqrt();
+        mdot.signum() * self.friction_drop(friction, a, b, len).abs()
     }
 
     fn segment_state(&self, ctx: &Ctx, i: usize) -> GasState {
@@ -232,16 +273,16 @@ impl Tube {
     fn joint_flows(&self, ctx: &Ctx, seg: &[GasState]) -> Vec<PortFlow> {
         let dx = self.dx();
         let mut f = Vec::with_capacity(self.n + 1);
-        f.push(self.joint_flow(&ctx.pneumatic[0], &seg[0], 0.5 * dx));
+        f.push(self.joint_flow(ctx.gas, &ctx.pneumatic[0], &seg[0], 0.5 * dx));
         for k in 1..self.n {
             if self.inertia {
                 let mdot = ctx.states[2 * self.n + k - 1];
                 f.push(PortFlow { mdot, edot: mdot * if mdot >= 0.0 { seg[k - 1].h } else { seg[k].h } });
             } else {
-                f.push(self.joint_flow(&seg[k - 1], &seg[k], dx));
+                f.push(self.joint_flow(ctx.gas, &seg[k - 1], &seg[k], dx));
             }
         }
-        f.push(self.joint_flow(&seg[self.n - 1], &ctx.pneumatic[1], 0.5 * dx));
+        f.push(self.joint_flow(ctx.gas, &seg[self.n - 1], &ctx.pneumatic[1], 0.5 * dx));
         f
     }
 
@@ -295,8 +336,8 @@ impl Block for Tube {
     }
     fn flows(&self, ctx: &Ctx, out: &mut [PortFlow]) {
         let dx = self.dx();
-        out[0] = self.joint_flow(&ctx.pneumatic[0], &self.segment_state(ctx, 0), 0.5 * dx);
-        out[1] = -self.joint_flow(&self.segment_state(ctx, self.n - 1), &ctx.pneumatic[1], 0.5 * dx);
+        out[0] = self.joint_flow(ctx.gas, &ctx.pneumatic[0], &self.segment_state(ctx, 0), 0.5 * dx);
+        out[1] = -self.joint_flow(ctx.gas, &self.segment_state(ctx, self.n - 1), &ctx.pneumatic[1], 0.5 * dx);
     }
     fn derivatives(&self, ctx: &Ctx, _b: &Balances, out: &mut [f64]) {
         let seg = self.segments(ctx);
@@ -312,7 +353,7 @@ impl Block for Tube {
             let dx = self.dx();
             for k in 1..self.n {
                 let mdot = ctx.states[2 * self.n + k - 1];
-                let drop = self.friction_drop(mdot, &seg[k - 1], &seg[k], dx);
+                let drop = self.joint_drop(ctx.gas, mdot, &seg[k - 1], &seg[k], dx);
                 out[2 * self.n + k - 1] = self.area / dx * (seg[k - 1].p - seg[k].p - drop);
             }
         }
@@ -396,22 +437,38 @@ mod tests {
         let gas = gas::IdealGas::air();
         let (p, dp) = (3e5, 10.0);
         let (a, b) = (gas.state_pt(p + dp / 2.0, 293.15), gas.state_pt(p - dp / 2.0, 293.15));
-        let f = t.joint_flow(&a, &b, 1.0);
+        let f = t.friction_flow(&a, &b, 1.0);
         let rho = 0.5 * (a.rho + b.rho);
         let hp = rho * std::f64::consts::PI * 0.004f64.powi(4) * dp / (128.0 * 18.1e-6 * 1.0);
-        assert!((f.mdot - hp).abs() < 1e-9 * hp, "{} vs {hp}", f.mdot);
-        assert!(f.mdot * 0.004 / (t.area * 18.1e-6) < RE_LAMINAR);
+        assert!((f - hp).abs() < 1e-9 * hp, "{f} vs {hp}");
+        assert!(f * 0.004 / (t.area * 18.1e-6) < RE_LAMINAR);
+        // far below the sonic flow the joint passes the friction flow
+        assert!((t.joint_flow(&gas, &a, &b, 1.0).mdot - f).abs() < 1e-9 * f);
         // turbulent: Blasius, Δp = 0.3164 Re^-¼ (ℓ/D) ρ u²/2
         let dp = 0.5e5;
         let (a, b) = (gas.state_pt(p + dp / 2.0, 293.15), gas.state_pt(p - dp / 2.0, 293.15));
-        let f = t.joint_flow(&a, &b, 1.0);
+        let f = t.friction_flow(&a, &b, 1.0);
         let rho = 0.5 * (a.rho + b.rho);
-        let re = f.mdot * 0.004 / (t.area * 18.1e-6);
-        let u = f.mdot / (rho * t.area);
+        let re = f * 0.004 / (t.area * 18.1e-6);
+        let u = f / (rho * t.area);
         let blasius = 0.3164 * re.powf(-0.25) * (1.0 / 0.004) * rho * u * u / 2.0;
         assert!(re > RE_TURBULENT && (blasius - dp).abs() < 1e-9 * dp, "Re {re}: {blasius} vs {dp}");
         // and the drop of a given flow inverts the flow of a given drop
-        assert!((t.friction_drop(f.mdot, &a, &b, 1.0) - dp).abs() < 1e-6 * dp);
+        assert!((t.friction_drop(f, &a, &b, 1.0) - dp).abs() < 1e-6 * dp);
+        // with inertia, the steady drop of the limited flow is the drop that produced it
+        let limited = t.joint_flow(&gas, &a, &b, 1.0).mdot;
+        assert!(limited < f && (t.joint_drop(&gas, limited, &a, &b, 1.0) - dp).abs() < 1e-6 * dp);
+    }
+
+    #[test]
+    fn a_line_vented_into_vacuum_chokes_at_the_sonic_flow() {
+        let t = tube(&[]).unwrap();
+        let gas = gas::IdealGas::air();
+        let (a, b) = (gas.state_pt(6e5, 293.15), gas.state_pt(1.0, 293.15));
+        let f = t.joint_flow(&gas, &a, &b, 1e-4).mdot;
+        // ṁ* = 0.6847 A p0/√(R T0) for γ = 1.4
+        let sonic = 0.68473 * t.area * 6e5 / (287.05f64 * 293.15).sqrt();
+        assert!(f < sonic * 1.0001 && f > 0.99 * sonic, "{f} vs {sonic}");
     }
 
     #[test]

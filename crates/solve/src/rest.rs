@@ -46,6 +46,12 @@
 //!    that stop (a closed chamber acting as a gas spring), the rest position
 //!    lies between the stops and is not computed: an error asks for `x0`.
 //!
+//! A block that holds a port at a pressure at rest
+//! ([`blocks::Block::rest_pressure`], a regulator's outlet at its set
+//! pressure) is not probed: its port's node is fed from a source at that
+//! pressure instead (both ways if it relieves), and its other ports are not
+//! joined to it.
+//!
 //! Limits: the graph rule is exact for chambers open to one pressure level
 //! (every shipped model); flow equilibria are found to the integrator's
 //! tolerance (1e-10). A force equilibrium between the stops (a gas spring, a
@@ -105,15 +111,25 @@ fn compute(model: &mut Model) -> Result<RestReport, RestError> {
     let mut report = RestReport::default();
     let y = model.initial_state();
     model.eval(0.0, &y, None, None)?;
-    let edges = open_paths(model, &y);
-    set_pressures(model, &edges, &mut report)?;
+    let (edges, held) = open_paths(model, &y);
+    set_pressures(model, &edges, &held, &mut report)?;
     set_positions(model, &mut report)?;
     Ok(report)
 }
 
+/// A node a block holds at a pressure at rest ([`blocks::Block::rest_pressure`]).
+struct Held {
+    block: usize,
+    node: usize,
+    state: GasState,
+    relieving: bool,
+}
+
 /// Directed edges between pneumatic nodes, with the probe flow [kg/s] as
-/// their width: gas can pass from `a` to `b` at rest.
-fn open_paths(model: &Model, y: &[f64]) -> Vec<Vec<(usize, f64)>> {
+/// their width: gas can pass from `a` to `b` at rest; and the nodes blocks
+/// hold at a pressure (a regulator's outlet), which act as sources.
+fn open_paths(model: &Model, y: &[f64]) -> (Vec<Vec<(usize, f64)>>, Vec<Held>) {
+    let mut held = Vec::new();
     let gas = &*model.gas;
     let state = |p: f64| GasState { p, t: PROBE_T, rho: gas.density(p, PROBE_T), h: gas.enthalpy(gas.density(p, PROBE_T), PROBE_T) };
     let (high, low) = (state(PROBE_HIGH), state(PROBE_LOW));
@@ -128,6 +144,13 @@ fn open_paths(model: &Model, y: &[f64]) -> Vec<Vec<(usize, f64)>> {
             continue;
         }
         let block = &model.circuit.instances[bi].block;
+        let ctx = Ctx { t: 0.0, gas, states: &y[slot.states.clone()], pneumatic: &slot.gas, mechanical: &slot.mech, signals: &slot.sig };
+        if let Some(r) = block.rest_pressure(&ctx) {
+            if let (Some(&node), Some(from)) = (slot.pneu_nodes.get(r.port), slot.gas.get(r.from)) {
+                held.push(Held { block: bi, node, state: GasState { p: r.pressure, ..gas.state_pt(r.pressure, from.t) }, relieving: r.relieving });
+            }
+            continue;
+        }
         if slot.role == GasRole::Capacity {
             // a capacity between flow ports (a tube) is an open passage both ways;
             // its probe flows would only tell its own initial content
@@ -165,7 +188,7 @@ fn open_paths(model: &Model, y: &[f64]) -> Vec<Vec<(usize, f64)>> {
             }
         }
     }
-    edges
+    (edges, held)
 }
 
 /// Role of a pneumatic node at rest.
@@ -258,15 +281,27 @@ struct Level {
     reason: String,
 }
 
-fn set_pressures(model: &mut Model, edges: &[Vec<(usize, f64)>], report: &mut RestReport) -> Result<(), RestError> {
-    let roles = roles(model);
+fn set_pressures(model: &mut Model, edges: &[Vec<(usize, f64)>], held: &[Held], report: &mut RestReport) -> Result<(), RestError> {
+    // a held node is fed by a virtual source behind it (both ways if it relieves)
+    let mut roles = roles(model);
+    let mut edges = edges.to_vec();
+    let mut node_gas = model.node_gas.clone();
+    for h in held {
+        let v = edges.len();
+        edges.push(vec![(h.node, f64::INFINITY)]);
+        if h.relieving {
+            edges[h.node].push((v, f64::INFINITY));
+        }
+        roles.push(Role::Source { block: h.block });
+        node_gas.push(h.state);
+    }
+    let edges = edges.as_slice();
     let back = reversed(edges);
     let sources: Vec<(usize, usize)> =
         roles.iter().enumerate().filter_map(|(n, r)| if let Role::Source { block } = r { Some((n, *block)) } else { None }).collect();
     // fill[s][n]: widest path for gas from source s to n; drain[s][n]: from n to s
     let fill: Vec<Vec<f64>> = sources.iter().map(|&(n, _)| widest(n, edges, &roles)).collect();
     let drain: Vec<Vec<f64>> = sources.iter().map(|&(n, _)| widest(n, &back, &roles)).collect();
-    let node_gas = model.node_gas.clone();
     let name = |b: usize| model.circuit.instances[b].id.clone();
     // the level of a node; None if it reaches no source (a closed volume)
     let level_at = |node: usize| -> Option<Level> {
@@ -306,7 +341,7 @@ fn set_pressures(model: &mut Model, edges: &[Vec<(usize, f64)>], report: &mut Re
     let mut dividers = Vec::new();
     // what each free capacity takes: (block, pressure or None to keep it, temperature, reason)
     let mut decided: Vec<(usize, Option<f64>, f64, String)> = Vec::new();
-    for (node, role) in roles.iter().enumerate() {
+    for (node, role) in roles.iter().enumerate().take(model.circuit.pneumatic_nodes.len()) {
         let Role::Capacity { block } = *role else { continue };
         let free = model.circuit.instances[block].block.free_initial();
         if !free.pressure && !free.temperature {
@@ -443,7 +478,8 @@ fn steady_flow(model: &mut Model, dividers: &[usize], report: &mut RestReport) -
             .map_err(|e| RestError::Undetermined { id: sys.model.circuit.instances[dividers[0]].id.clone(), message: e.to_string() })?;
         model.eval(t, &y, None, None)?;
         let now = pressures(model);
-        let settled = now.iter().zip(&last).all(|(a, b)| (a - b).abs() <= 1e-12 * a.abs());
+        // unchanged to ten times the integrator's relative tolerance over a decade of time
+        let settled = now.iter().zip(&last).all(|(a, b)| (a - b).abs() <= 1e-9 * a.abs());
         last = now;
         if settled && t_stop >= 1.0 {
             converged = true;
