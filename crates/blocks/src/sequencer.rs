@@ -387,8 +387,8 @@ impl Sequencer {
         };
         let mut transitions = Vec::new();
         for (src, dst, cond) in &step_lists {
-            let sources = names(&[src.clone()]).iter().map(|s| step_index(s, "transitions")).collect::<Result<Vec<_>, _>>()?;
-            let targets = names(&[dst.clone()]).iter().map(|s| step_index(s, "transitions")).collect::<Result<Vec<_>, _>>()?;
+            let sources = names(std::slice::from_ref(src)).iter().map(|s| step_index(s, "transitions")).collect::<Result<Vec<_>, _>>()?;
+            let targets = names(std::slice::from_ref(dst)).iter().map(|s| step_index(s, "transitions")).collect::<Result<Vec<_>, _>>()?;
             if sources.is_empty() || targets.is_empty() {
                 return Err(BlockError::invalid("transitions", &format!("\"{src} -> {dst}\" needs steps on both sides")));
             }
@@ -453,11 +453,11 @@ impl Sequencer {
                 None => Action::Continuous { output, value, steps: step_ids },
             });
         }
-        for o in 0..outputs.len() {
+        for (o, name) in outputs.iter().enumerate() {
             let continuous = actions.iter().any(|a| matches!(a, Action::Continuous { output, .. } if *output == o));
             let stored = actions.iter().any(|a| matches!(a, Action::Stored { output, .. } if *output == o));
             if continuous && stored {
-                return Err(BlockError::invalid("actions", &format!("output \"{}\" has both continuous and set/reset actions", outputs[o])));
+                return Err(BlockError::invalid("actions", &format!("output \"{name}\" has both continuous and set/reset actions")));
             }
         }
         let cycle_names = names(p.words("cycle_step"));
@@ -522,14 +522,14 @@ impl Sequencer {
     /// Values of the outputs in the current situation.
     fn output_values(&self, out: &mut [f64]) {
         out.copy_from_slice(&self.stored);
-        for o in 0..self.n_outputs {
+        for (o, value) in out.iter_mut().enumerate() {
             let continuous = self.actions.iter().find_map(|a| match a {
                 Action::Continuous { output, value, steps } if *output == o && steps.iter().any(|&s| self.active[s].is_some()) => Some(*value),
                 _ => None,
             });
             let has_continuous = self.actions.iter().any(|a| matches!(a, Action::Continuous { output, .. } if *output == o));
             if has_continuous {
-                out[o] = continuous.unwrap_or(0.0);
+                *value = continuous.unwrap_or(0.0);
             }
         }
     }

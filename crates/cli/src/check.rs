@@ -86,7 +86,8 @@ pub fn block_listing() -> String {
                 let _ = writeln!(s, "    {:<20} {:<28} {:<18} {}", p.name, role, unit, p.doc);
             }
             if !t.outputs.is_empty() {
-                let outs: Vec<String> = t.outputs.iter().map(|o| format!("{} [{}]", o.name, if o.unit.is_empty() { "as input" } else { o.unit })).collect();
+                let outs: Vec<String> =
+                    t.outputs.iter().map(|o| format!("{} [{}]", o.name, if o.unit.is_empty() { "as input" } else { o.unit })).collect();
                 let _ = writeln!(s, "  recorded: {}", outs.join(", "));
             }
             let _ = writeln!(s, "  parameters:");

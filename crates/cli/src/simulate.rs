@@ -101,8 +101,10 @@ pub fn run(a: &SimulateArgs) -> Result<(), CliError> {
     let air = crate::output::air_consumption(res);
     if let Some(sources) = air["sources"].as_object() {
         for (id, s) in sources {
-            let per_cycle = s["per_cycle_L"].as_object().and_then(|m| m.values().next()).and_then(|l| l.as_array()).cloned().unwrap_or_default();
-            let mean_cycle = (!per_cycle.is_empty()).then(|| per_cycle.iter().filter_map(|v| v.as_f64()).sum::<f64>() / per_cycle.len() as f64);
+            let per_cycle =
+                s["per_cycle_L"].as_object().and_then(|m| m.values().next()).and_then(|l| l.as_array()).cloned().unwrap_or_default();
+            let mean_cycle =
+                (!per_cycle.is_empty()).then(|| per_cycle.iter().filter_map(|v| v.as_f64()).sum::<f64>() / per_cycle.len() as f64);
             println!(
                 "{id}: free air {:.3} L ANR{}, {:.2} L/min ANR (ISO 8778)",
                 s["free_air_L"].as_f64().unwrap_or(f64::NAN),

@@ -410,7 +410,10 @@ fn sequence_ab_runs_a_plus_b_plus_a_minus_b_minus() {
         let b_out = first(&xb, a_out, |x| x >= 0.049);
         let a_in = first(&xa, b_out, |x| x <= 0.001);
         let b_in = first(&xb, a_in, |x| x <= 0.001);
-        eprintln!("sequence_ab cycle at {:.4} s: A+ {a_out:.4}, B+ {b_out:.4}, A- {a_in:.4}, B- {b_in:.4}, total {:.4} s", c.start, c.total);
+        eprintln!(
+            "sequence_ab cycle at {:.4} s: A+ {a_out:.4}, B+ {b_out:.4}, A- {a_in:.4}, B- {b_in:.4}, total {:.4} s",
+            c.start, c.total
+        );
         assert!(b_in <= c.start + c.total + 1e-9);
         // B does not move before A is out; A does not retract before B is out
         assert!(at(&xb, a_out - 0.002) < 0.001, "B moved early");
@@ -427,7 +430,9 @@ fn several_controllers_keep_their_cycles_apart() {
     let f = edited("sequence_ab.json", |j| {
         let comps = j["components"].as_array_mut().expect("components");
         comps.retain(|c| c["id"] != "sequence" && c["id"] != "start");
-        comps.push(serde_json::json!({ "id": "cycler_a", "type": "cycler", "params": { "stroke": "= cyl_a.stroke", "switch_tolerance": "1 mm" } }));
+        comps.push(
+            serde_json::json!({ "id": "cycler_a", "type": "cycler", "params": { "stroke": "= cyl_a.stroke", "switch_tolerance": "1 mm" } }),
+        );
         comps.push(serde_json::json!({ "id": "cycler_b", "type": "cycler", "params": { "stroke": "= cyl_b.stroke", "switch_tolerance": "1 mm", "dwell_extended": "0.2 s" } }));
         let conns = j["connections"].as_array_mut().expect("connections");
         conns.retain(|c| !c.to_string().contains("sequence") && !c.to_string().contains("start."));
@@ -484,7 +489,8 @@ fn hose_5m_delays_and_damps_the_pressure_step() {
         let head = series(r, "cyl.head.p");
         let t0 = first(&valve, 0.0, |p| p > 101_325.0 + 0.2e5);
         let t1 = first(&head, 0.0, |p| p > 101_325.0 + 0.2e5);
-        let rate = head.windows(2).filter(|w| w[1].0 < 0.3 && w[1].0 > w[0].0).map(|w| (w[1].1 - w[0].1) / (w[1].0 - w[0].0)).fold(0.0, f64::max);
+        let rate =
+            head.windows(2).filter(|w| w[1].0 < 0.3 && w[1].0 > w[0].0).map(|w| (w[1].1 - w[0].1) / (w[1].0 - w[0].0)).fold(0.0, f64::max);
         (t1 - t0, rate, r.cycles[0].extend)
     };
     let ((d_long, rate_long, ext_long), (d_short, rate_short, ext_short)) = (step(&long), step(&short));
@@ -556,9 +562,15 @@ fn position_control_follows_the_setpoint_steps() {
     let u = series(&r, "controller.u");
     for (t_step, target, until) in [(0.2, 0.1, 1.5), (1.5, 0.05, 2.8), (2.8, 0.15, 4.0)] {
         let window: Vec<&(f64, f64)> = x.iter().filter(|p| p.0 > t_step && p.0 < until).collect();
-        let settled = window.iter().find(|p| window.iter().filter(|q| q.0 >= p.0).all(|q| (q.1 - target).abs() < 1e-3)).map(|p| p.0 - t_step);
+        let settled =
+            window.iter().find(|p| window.iter().filter(|q| q.0 >= p.0).all(|q| (q.1 - target).abs() < 1e-3)).map(|p| p.0 - t_step);
         let overshoot = window.iter().map(|p| (p.1 - target) * (target - at(&x, t_step)).signum()).fold(f64::NEG_INFINITY, f64::max);
-        eprintln!("position_control: step to {:.0} mm settles within 1 mm after {:?} s, overshoot {:.2} mm", target * 1e3, settled, overshoot * 1e3);
+        eprintln!(
+            "position_control: step to {:.0} mm settles within 1 mm after {:?} s, overshoot {:.2} mm",
+            target * 1e3,
+            settled,
+            overshoot * 1e3
+        );
         assert!(settled.is_some_and(|s| s < 0.6), "{settled:?}");
         assert!(overshoot < 3e-3);
     }
@@ -592,7 +604,34 @@ fn a_supply_reports_the_free_air_it_delivers() {
     assert!(rel(free_air, expected) < 1e-5);
     // and in the summary of a cycling circuit, per cycle of its controller
     let r = run("meter_out.json", &[]);
-    let per_cycle: Vec<f64> = r.cycle_statistics.iter().filter(|s| s.id == "supply" && s.name == "free_air").filter_map(|s| s.value).collect();
+    let per_cycle: Vec<f64> =
+        r.cycle_statistics.iter().filter(|s| s.id == "supply" && s.name == "free_air").filter_map(|s| s.value).collect();
     assert_eq!(per_cycle.len(), r.cycles.len());
     assert!(per_cycle.iter().all(|&v| v > 1e-3 && v < 1e-2), "{per_cycle:?}");
+}
+
+#[test]
+fn bad_library_input_is_one_line_and_writes_nothing() {
+    let dir = Scratch::new("bad-input");
+    let (out, summary) = (dir.0.join("r.csv"), dir.0.join("s.json"));
+    for (model, set, needle) in [
+        ("vertical_lift.json", "regulator.p_set=9 bar", "parameter \"p_set\""),
+        ("hose_5m.json", "hose.segments=0", "parameter \"segments\""),
+        ("sequence_ab.json", "sequence.transitions=0 -> 1 : start & c1", "\"c1\" is not an input"),
+    ] {
+        let r = Command::new(env!("CARGO_BIN_EXE_pneumo"))
+            .arg("simulate")
+            .arg(models().join(model))
+            .args(["--set", set, "--out"])
+            .arg(&out)
+            .arg("--summary")
+            .arg(&summary)
+            .output()
+            .expect("run pneumo");
+        let err = String::from_utf8_lossy(&r.stderr);
+        assert_eq!(r.status.code(), Some(1), "{model}: {err}");
+        assert_eq!(err.trim_end().lines().count(), 1, "{model}: one line: {err}");
+        assert!(err.contains(needle), "{model}: {err}");
+        assert!(!out.exists() && !summary.exists(), "{model}: no output written");
+    }
 }

@@ -147,7 +147,12 @@ fn open_paths(model: &Model, y: &[f64]) -> (Vec<Vec<(usize, f64)>>, Vec<Held>) {
         let ctx = Ctx { t: 0.0, gas, states: &y[slot.states.clone()], pneumatic: &slot.gas, mechanical: &slot.mech, signals: &slot.sig };
         if let Some(r) = block.rest_pressure(&ctx) {
             if let (Some(&node), Some(from)) = (slot.pneu_nodes.get(r.port), slot.gas.get(r.from)) {
-                held.push(Held { block: bi, node, state: GasState { p: r.pressure, ..gas.state_pt(r.pressure, from.t) }, relieving: r.relieving });
+                held.push(Held {
+                    block: bi,
+                    node,
+                    state: GasState { p: r.pressure, ..gas.state_pt(r.pressure, from.t) },
+                    relieving: r.relieving,
+                });
             }
             continue;
         }
@@ -459,7 +464,8 @@ fn steady_flow(model: &mut Model, dividers: &[usize], report: &mut RestReport) -
     let nodes: Vec<Vec<usize>> = dividers
         .iter()
         .map(|&b| {
-            let effort = model.circuit.pneumatic_nodes.iter().position(|pn| matches!(pn.causality, NodeCausality::Effort(r) if r.block == b));
+            let effort =
+                model.circuit.pneumatic_nodes.iter().position(|pn| matches!(pn.causality, NodeCausality::Effort(r) if r.block == b));
             match effort {
                 Some(k) => vec![k],
                 None => model.slots[b].pneu_nodes.clone(),

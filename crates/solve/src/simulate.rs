@@ -701,7 +701,11 @@ fn settle(
         for node in 0..model.circuit.mechanical_nodes.len() {
             let r = model.circuit.mechanical_nodes[node].inertia;
             let block = &model.circuit.instances[r.block].block;
-            let body = mechanics::Body { mass: crate::model::node_mass(&model.circuit, node), stops: block.stops(), velocity_band: model.velocity_band };
+            let body = mechanics::Body {
+                mass: crate::model::node_mass(&model.circuit, node),
+                stops: block.stops(),
+                velocity_band: model.velocity_band,
+            };
             let m = model.node_mech[node];
             let f = model.node_forces[node];
             let fired_now = if pass == 0 { fired.get(node).copied().unwrap_or_default() } else { [false; mechanics::N_ROOTS] };
