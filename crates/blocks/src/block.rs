@@ -420,6 +420,14 @@ pub trait Block: std::fmt::Debug + Send + Sync {
     }
     /// Phase 4: flows into the block at each pneumatic flow port.
     fn flows(&self, _ctx: &Ctx, _out: &mut [PortFlow]) {}
+    /// The flow into the block at its `port`-th pneumatic port (indexing as
+    /// in `ctx.pneumatic`) and the derivative of its mass flow with respect
+    /// to that port's pressure, the other ports and all temperatures held.
+    /// Used by the junction solve for Newton steps; `None` (the default)
+    /// makes it fall back to secant steps on [`Block::flows`].
+    fn port_flow(&self, _ctx: &Ctx, _port: usize) -> Option<(PortFlow, f64)> {
+        None
+    }
     /// Phase 5: forces on each mechanical port's node (inertia ports included).
     fn forces(&self, _ctx: &Ctx, _out: &mut [PortForce]) {}
     /// Mass [kg] moved by an inertia port.

@@ -53,6 +53,22 @@ impl OneWay {
     pub fn flow(&self, a: &gas::GasState, b: &gas::GasState) -> PortFlow {
         restriction_flow(&self.flow, self.opening(a.p - b.p), a, b, 0.0)
     }
+    /// [`OneWay::flow`] with the derivatives of its mass flow by p_a and p_b
+    /// (the opening moves with p_a − p_b inside the opening range).
+    pub fn flow_slopes(&self, a: &gas::GasState, b: &gas::GasState) -> (PortFlow, f64, f64) {
+        let dp = a.p - b.p;
+        let opening = self.opening(dp);
+        let (f, da, db) = crate::conductance::restriction_flow_slopes(&self.flow, opening, a, b, 0.0);
+        let x = (dp - self.cracking_pressure) / self.opening_range;
+        if x > 0.0 && x < 1.0 {
+            // ṁ = opening·ṁ_ISO: the opening's own slope ±1/range adds ṁ_ISO/range
+            let full = self.flow.mass_flow(a.p, a.t, b.p, b.t);
+            let d = full / self.opening_range;
+            (f, da + d, db - d)
+        } else {
+            (f, da, db)
+        }
+    }
 }
 
 #[derive(Debug, Clone, PartialEq)]
@@ -86,6 +102,10 @@ impl Block for CheckValve {
         let f = self.valve.flow(&ctx.pneumatic[0], &ctx.pneumatic[1]);
         out[0] = f;
         out[1] = -f;
+    }
+    fn port_flow(&self, ctx: &Ctx, port: usize) -> Option<(PortFlow, f64)> {
+        let (f, da, db) = self.valve.flow_slopes(&ctx.pneumatic[0], &ctx.pneumatic[1]);
+        Some(crate::conductance::at_port(port, f, da, db))
     }
     fn outputs(&self) -> &[OutputSpec] {
         OUTPUTS

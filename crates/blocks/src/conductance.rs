@@ -52,6 +52,26 @@ pub use crate::iso6358::from_params as characteristic;
 /// Flow from side a to side b of a restriction with an opening factor in [0, 1].
 ///
 /// Returns the flow INTO the restriction at port a; the flow at port b is its negative.
+/// [`restriction_flow`] with the derivatives of its mass flow with respect to
+/// p_a and p_b (temperatures held): `(flow into a, ∂ṁ/∂p_a, ∂ṁ/∂p_b)`.
+pub fn restriction_flow_slopes(fc: &FlowCharacteristic, opening: f64, a: &GasState, b: &GasState, g_heat: f64) -> (PortFlow, f64, f64) {
+    if opening <= 0.0 {
+        return (PortFlow { mdot: 0.0, edot: g_heat * (a.t - b.t) }, 0.0, 0.0);
+    }
+    let (da, db) = fc.mass_flow_derivatives(a.p, a.t, b.p, b.t);
+    (restriction_flow(fc, opening, a, b, g_heat), opening * da, opening * db)
+}
+
+/// Flow into port `port` (0 = a, 1 = b) of a two-port restriction carrying
+/// `f` into a, with the derivative of its mass flow by that port's pressure.
+pub fn at_port(port: usize, f: PortFlow, d_pa: f64, d_pb: f64) -> (PortFlow, f64) {
+    if port == 0 {
+        (f, d_pa)
+    } else {
+        (-f, -d_pb)
+    }
+}
+
 pub fn restriction_flow(fc: &FlowCharacteristic, opening: f64, a: &GasState, b: &GasState, g_heat: f64) -> PortFlow {
     if opening <= 0.0 {
         return PortFlow { mdot: 0.0, edot: g_heat * (a.t - b.t) };
@@ -87,6 +107,10 @@ impl Block for Conductance {
         let f = restriction_flow(&self.flow, 1.0, &ctx.pneumatic[0], &ctx.pneumatic[1], self.heat_conductance);
         out[0] = f;
         out[1] = -f;
+    }
+    fn port_flow(&self, ctx: &Ctx, port: usize) -> Option<(PortFlow, f64)> {
+        let (f, da, db) = restriction_flow_slopes(&self.flow, 1.0, &ctx.pneumatic[0], &ctx.pneumatic[1], self.heat_conductance);
+        Some(at_port(port, f, da, db))
     }
     fn outputs(&self) -> &[OutputSpec] {
         OUTPUTS

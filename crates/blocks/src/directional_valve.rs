@@ -205,6 +205,23 @@ impl Block for DirectionalValve {
             out[path.to] += -f;
         }
     }
+    fn port_flow(&self, ctx: &Ctx, port: usize) -> Option<(PortFlow, f64)> {
+        let s = self.spool(ctx);
+        let (mut sum, mut slope) = (PortFlow::default(), 0.0);
+        for path in self.paths.iter().filter(|p| p.from == port || p.to == port) {
+            let opening = if path.when_actuated { s } else { 1.0 - s };
+            let (f, da, db) =
+                crate::conductance::restriction_flow_slopes(&path.flow, opening, &ctx.pneumatic[path.from], &ctx.pneumatic[path.to], 0.0);
+            if path.from == port {
+                sum += f;
+                slope += da;
+            } else {
+                sum += -f;
+                slope -= db;
+            }
+        }
+        Some((sum, slope))
+    }
     fn derivatives(&self, ctx: &Ctx, _b: &Balances, out: &mut [f64]) {
         if self.spool_tau > 0.0 {
             let target = if ctx.signals[0] >= 0.5 { 1.0 } else { 0.0 };

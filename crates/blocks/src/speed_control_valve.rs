@@ -96,6 +96,15 @@ impl Block for SpeedControlValve {
         out[0] = f;
         out[1] = -f;
     }
+    fn port_flow(&self, ctx: &Ctx, port: usize) -> Option<(PortFlow, f64)> {
+        let (a, b) = (&ctx.pneumatic[0], &ctx.pneumatic[1]);
+        let (mut f, mut da, mut db) = crate::conductance::restriction_flow_slopes(&self.throttle, 1.0, a, b, 0.0);
+        let (fc, dca, dcb) = self.check.flow_slopes(a, b);
+        f += fc;
+        da += dca;
+        db += dcb;
+        Some(crate::conductance::at_port(port, f, da, db))
+    }
     fn outputs(&self) -> &[OutputSpec] {
         OUTPUTS
     }
@@ -140,5 +149,64 @@ mod tests {
         assert_eq!(c2.mdot, 0.0);
         // forward passes both paths: (13.2 + 490)/13.2 times the throttled flow
         assert!((forward / backward - (13.2 + 490.0) / 13.2).abs() < 1e-9, "{}", forward / backward);
+    }
+}
+
+#[cfg(test)]
+mod slope_tests {
+    use crate::block::{Ctx, PortFlow};
+    use gas::GasModel;
+
+    /// `port_flow` of every two-port restriction agrees with `flows` and with a
+    /// central difference of `flows` in the port's pressure, on both sides of
+    /// the check valve's opening range, subsonic and choked.
+    #[test]
+    fn port_flow_slopes_match_finite_differences() {
+        let gas = gas::IdealGas::air();
+        let blocks: Vec<(&str, Vec<(&str, crate::params::RawValue)>)> = vec![
+            (
+                "conductance",
+                vec![("C", crate::params::RawValue::Text("13.2 L/min/bar".into())), ("b", crate::params::RawValue::Number(0.3))],
+            ),
+            (
+                "check_valve",
+                vec![("C", crate::params::RawValue::Text("100 L/min/bar".into())), ("b", crate::params::RawValue::Number(0.3))],
+            ),
+            (
+                "speed_control_valve",
+                vec![
+                    ("C", crate::params::RawValue::Text("13.2 L/min/bar".into())),
+                    ("b", crate::params::RawValue::Number(0.3)),
+                    ("check_C", crate::params::RawValue::Text("490 L/min/bar".into())),
+                    ("check_b", crate::params::RawValue::Number(0.3)),
+                ],
+            ),
+        ];
+        for (kind, params) in &blocks {
+            let b = crate::registry::build(kind, params.iter().map(|(k, v)| (*k, v))).unwrap();
+            for (pa, pb) in [(4e5, 1e5), (4e5, 3.9e5), (4e5, 3.9995e5), (3.9995e5, 4e5), (1e5, 4e5), (2e5, 1.999e5)] {
+                for port in 0..2 {
+                    let states = [gas.state_pt(pa, 300.0), gas.state_pt(pb, 280.0)];
+                    let ctx = Ctx { t: 0.0, gas: &gas, states: &[], pneumatic: &states, mechanical: &[], signals: &[] };
+                    let mut out = [PortFlow::default(); 2];
+                    b.flows(&ctx, &mut out);
+                    let (f, slope) = b.port_flow(&ctx, port).expect("restrictions give their slope");
+                    assert!((f.mdot - out[port].mdot).abs() <= 1e-12 * out[port].mdot.abs().max(1e-12), "{kind}: flow");
+                    let fd = |dp: f64| {
+                        let mut st = states;
+                        let t = st[port].t;
+                        st[port] = gas.state_pt(st[port].p + dp, t);
+                        let ctx = Ctx { t: 0.0, gas: &gas, states: &[], pneumatic: &st, mechanical: &[], signals: &[] };
+                        let mut o = [PortFlow::default(); 2];
+                        b.flows(&ctx, &mut o);
+                        o[port].mdot
+                    };
+                    let h = 1e-3;
+                    let numeric = (fd(h) - fd(-h)) / (2.0 * h);
+                    let scale = numeric.abs().max(slope.abs()).max(1e-15);
+                    assert!((numeric - slope).abs() <= 1e-4 * scale, "{kind} pa {pa} pb {pb} port {port}: slope {slope} vs {numeric}");
+                }
+            }
+        }
     }
 }

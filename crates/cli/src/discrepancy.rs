@@ -68,12 +68,13 @@ pub fn run(a: &DiscrepancyArgs) -> Result<(), CliError> {
     let folder = std::fs::canonicalize(if dir.as_os_str().is_empty() { Path::new(".") } else { &dir }).unwrap_or_else(|_| dir.clone());
     let read = |name: &str| -> Result<(String, String), String> {
         let path = dir.join(name);
-        // data files are read from the manifest's folder and below only: a
-        // manifest cannot make pneumo read (and quote) a file elsewhere
+        // a relative data path is read from the manifest's folder and below
+        // only: "../" cannot make pneumo read (and quote) a file elsewhere;
+        // an absolute path is the user's explicit choice
         match std::fs::canonicalize(&path) {
-            Ok(real) if !real.starts_with(&folder) => {
+            Ok(real) if Path::new(name).is_relative() && !real.starts_with(&folder) => {
                 return Err(format!(
-                    "{}: data file lies outside the manifest's folder {} (put the data beside the manifest, or in a folder below it)",
+                    "{}: a relative data path leads outside the manifest's folder {} (put the data beside the manifest or below it, or give an absolute path)",
                     crate::error::shown_path(&path),
                     crate::error::shown_path(&folder)
                 ))

@@ -43,7 +43,13 @@ pub fn run(a: &SimulateArgs) -> Result<(), CliError> {
     let mut outputs = Transaction::new(&inputs);
     let targets: Vec<&std::path::Path> = [&a.out, &a.summary, &a.plot].into_iter().flatten().map(|p| p.as_path()).collect();
     outputs.check_targets(&targets)?;
-    let prepared = prepare(flat, &spec)?;
+    let mut prepared = prepare(flat, &spec)?;
+    if a.out.is_none() && a.plot.is_none() {
+        // no trace asked for: the summary's signal ranges come from the
+        // integrator's own steps, not from a fine sampling grid
+        prepared.opts.sample_interval = 0.0;
+        prepared.opts.record_steps = true;
+    }
     let wanted = if a.signals.is_empty() { prepared.outputs.clone() } else { a.signals.clone() };
     // unknown signal names are reported before the run, not after it
     let names = prepared.model.output_names();

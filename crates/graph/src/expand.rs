@@ -7,7 +7,7 @@
 //! `cyl.piston`, ...; its exposed ports `cyl.head_port` are rewritten to the
 //! inner ports they stand for.
 
-use crate::netlist::{split_ref, Component, GasModelName, InitialMode, Netlist, Simulation, Species, Value};
+use crate::netlist::{split_ref, Component, GasModelName, InitialMode, MethodName, Netlist, Simulation, Species, Value};
 use crate::GraphError;
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -406,7 +406,18 @@ fn apply_simulation_set(sim: &mut Simulation, param: &str, value: &str) -> Resul
                 .ok_or_else(|| format!("unknown initial mode \"{value}\" ({})", InitialMode::NAMES.join(", ")))?;
             sim.initial = if *word == "rest" { InitialMode::Rest } else { InitialMode::Given };
         }
-        _ => return Err(format!("unknown simulation setting \"{param}\" (rtol, atol, t_end, cycles, sample_interval, max_step, initial)")),
+        "method" => {
+            let word = MethodName::NAMES
+                .iter()
+                .find(|w| w.eq_ignore_ascii_case(value.trim()))
+                .ok_or_else(|| format!("unknown method \"{value}\" ({})", MethodName::NAMES.join(", ")))?;
+            sim.method = if *word == "ros34pw2" { MethodName::Ros34pw2 } else { MethodName::Rodas4 };
+        }
+        _ => {
+            return Err(format!(
+                "unknown simulation setting \"{param}\" (rtol, atol, t_end, cycles, sample_interval, max_step, initial, method)"
+            ))
+        }
     }
     Ok(())
 }

@@ -225,6 +225,25 @@ pub struct Simulation {
     /// its controllers released; init values written explicitly still win).
     #[serde(default)]
     pub initial: InitialMode,
+    /// Integration method: "ros34pw2" (Rosenbrock-W, order 3, reuses its
+    /// Jacobian) or "rodas4" (Rosenbrock, order 4, a Jacobian every step).
+    #[serde(default)]
+    pub method: MethodName,
+}
+
+/// The integration methods a netlist may choose.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, JsonSchema, Default)]
+#[serde(rename_all = "snake_case")]
+pub enum MethodName {
+    /// RODAS4: Rosenbrock order 4(3), L-stable, a Jacobian every step.
+    #[default]
+    Rodas4,
+    /// ROS34PW2: Rosenbrock-W order 3(2), L-stable, reuses its Jacobian.
+    Ros34pw2,
+}
+
+impl MethodName {
+    pub const NAMES: &'static [&'static str] = &["rodas4", "ros34pw2"];
 }
 
 /// How the initial state is found.
@@ -261,6 +280,7 @@ impl Default for Simulation {
             max_step: None,
             outputs: Vec::new(),
             initial: InitialMode::Given,
+            method: MethodName::default(),
         }
     }
 }

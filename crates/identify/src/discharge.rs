@@ -646,8 +646,10 @@ pub fn simulate_discharge_thermal(
         // a grid independent of the data rate: the cubic interpolation
         // below is exact to O(Δt⁴), far below any sensor noise
         sample_interval: t_end / 4000.0,
+        record_steps: false,
         max_step: t_end / 50.0,
         max_events: 1000,
+        method: solve::SimOptions::default().method,
     };
     let result = solve::simulate(&mut model, &opts).map_err(|e| e.to_string())?;
     let p = result.series("tank.p").ok_or("no tank.p in the results")?;

@@ -73,11 +73,22 @@ mod lu;
 mod rodas4;
 mod roots;
 mod rosenbrock;
+mod tableau;
 
 #[cfg(test)]
 mod tests;
 
 pub use rosenbrock::Rosenbrock;
+
+/// The Rosenbrock methods [`Rosenbrock`] offers.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum Method {
+    /// RODAS4: order 4(3), a fresh Jacobian at every step.
+    #[default]
+    Rodas4,
+    /// ROS34PW2: order 3(2) W-method, reuses its Jacobian over several steps.
+    Ros34pw2,
+}
 
 /// Error returned by a model's right-hand side or root functions.
 #[derive(Debug, Clone, thiserror::Error)]
@@ -106,6 +117,13 @@ pub trait OdeSystem {
     /// Number of root (event) functions.
     fn n_roots(&self) -> usize {
         0
+    }
+    /// f(t, y) and the root functions g(t, y) at one point. Systems whose
+    /// two share work (one evaluation of a model) override this; the default
+    /// calls [`OdeSystem::rhs`] then [`OdeSystem::roots`].
+    fn rhs_and_roots(&mut self, t: f64, y: &[f64], dydt: &mut [f64], g: &mut [f64]) -> Result<(), RhsError> {
+        self.rhs(t, y, dydt)?;
+        self.roots(t, y, g)
     }
     /// Root functions g(t, y); the integrator stops where one of them changes
     /// sign in its [`RootDirection`].

@@ -44,17 +44,24 @@ use nalgebra::DMatrix;
 
 use crate::dense::StepDense;
 use crate::lu::LuFactors;
-use crate::rodas4::*;
 use crate::roots::{changed, watch, RootFinder};
+use crate::tableau::{DenseKind, Tableau};
+use crate::Method;
 use crate::{Advance, Integrator, IntegratorError, OdeSystem, Options, RhsError, RootDirection, Stats};
 
 const SAFETY: f64 = 0.9;
 const FAC_MIN: f64 = 0.2;
 const FAC_MAX: f64 = 6.0;
+/// Smallest step-size factor after a rejected step: a step that missed by far
+/// (the first step after an event, with the size that suited the dynamics
+/// before it) shrinks as much as its error says, in one go.
+const FAC_MIN_REJECT: f64 = 0.01;
 /// Consecutive failed attempts (rejections, non-finite values, singular matrices) tolerated at one point.
 const MAX_FAILURES: usize = 100;
 /// Consecutive singular iteration matrices tolerated before giving up.
 const MAX_SINGULAR: usize = 5;
+/// Accepted steps a W-method may take with one Jacobian.
+const MAX_JACOBIAN_AGE: usize = 20;
 
 /// Outcome of one step attempt.
 enum Attempt {
@@ -85,7 +92,14 @@ pub struct Rosenbrock {
     fs: Vec<f64>,
     ytmp: Vec<f64>,
     y1: Vec<f64>,
-    u: [Vec<f64>; 6],
+    u: Vec<Vec<f64>>,
+    tableau: Tableau,
+    /// Accepted steps since the Jacobian was formed (W-methods reuse it).
+    jac_age: usize,
+    /// Number of trailing quadrature components (their columns of J are zero
+    /// and no derivative reads them, so W is block lower-triangular and only
+    /// its leading block is factored).
+    nq: usize,
     q1: Vec<f64>,
     q2: Vec<f64>,
     y_root: Vec<f64>,
@@ -144,7 +158,10 @@ impl Rosenbrock {
             fs: Vec::new(),
             ytmp: Vec::new(),
             y1: Vec::new(),
-            u: Default::default(),
+            u: Vec::new(),
+            tableau: Tableau::rodas4(),
+            jac_age: 0,
+            nq: 0,
             q1: Vec::new(),
             q2: Vec::new(),
             y_root: Vec::new(),
@@ -168,9 +185,20 @@ impl Rosenbrock {
         me
     }
 
+    /// New integrator using `method`.
+    pub fn with_method(options: Options, dim: usize, method: Method) -> Self {
+        let mut me = Self::new(options, dim);
+        me.tableau = match method {
+            Method::Rodas4 => Tableau::rodas4(),
+            Method::Ros34pw2 => Tableau::ros34pw2(),
+        };
+        me.resize(dim);
+        me
+    }
+
     /// Human-readable name of the method.
     pub fn method_name(&self) -> &str {
-        "RODAS4 (Hairer-Wanner), Rosenbrock order 4(3), L-stable, dense output order 3"
+        self.tableau.name
     }
 
     /// Step size to try first on the next `advance` (magnitude; ignored if not positive and finite).
@@ -216,12 +244,12 @@ impl Rosenbrock {
         self.fs = z();
         self.ytmp = z();
         self.y1 = z();
-        self.u = [z(), z(), z(), z(), z(), z()];
+        self.u = (0..self.tableau.stages).map(|_| z()).collect();
         self.q1 = z();
         self.q2 = z();
         self.y_root = z();
         self.jac = DMatrix::zeros(dim, dim);
-        self.lu = LuFactors::new(dim);
+        self.lu = LuFactors::new(dim - self.nq.min(dim));
         self.cache_valid = false;
         self.jac_valid = false;
         self.roots_valid = false;
@@ -281,6 +309,7 @@ impl Rosenbrock {
 
     /// Finite-difference Jacobian and time derivative at (t, y), using `self.f0`.
     fn jacobian(&mut self, sys: &mut dyn OdeSystem, t: f64, y: &[f64], h: f64) -> Result<(), IntegratorError> {
+        self.jac_age = 0;
         let sqrt_eps = f64::EPSILON.sqrt();
         self.ytmp.copy_from_slice(y);
         let n_state = self.n - sys.n_quadrature().min(self.n);
@@ -355,15 +384,18 @@ impl Rosenbrock {
         Ok(())
     }
 
-    /// One RODAS4 step from (t0, y) to t1; fills `self.y1` and `self.u`.
+    /// One step from (t0, y) to t1 with the tableau's stages; fills `self.y1`,
+    /// `self.u` and the error vector (in `self.ft`'s sibling `self.q1` is not
+    /// touched here).
     fn attempt(&mut self, sys: &mut dyn OdeSystem, t0: f64, t1: f64, y: &[f64]) -> Result<Attempt, IntegratorError> {
         let n = self.n;
         let h = t1 - t0;
-        let inv_hg = 1.0 / (h * GAMMA);
+        let inv_hg = 1.0 / (h * self.tableau.gamma);
+        let ns = n - self.nq;
         {
             let a = self.lu.matrix_mut();
-            for j in 0..n {
-                for i in 0..n {
+            for j in 0..ns {
+                for i in 0..ns {
                     a[(i, j)] = -self.jac[(i, j)];
                 }
                 a[(j, j)] += inv_hg;
@@ -373,80 +405,65 @@ impl Rosenbrock {
         if self.lu.factor().is_err() {
             return Ok(Attempt::Singular);
         }
-        let [u1, u2, u3, u4, u5, u6] = &mut self.u;
+        let tab = &self.tableau;
+        let u = &mut self.u;
         let ytmp = &mut self.ytmp;
         let fs = &mut self.fs;
         let ft = &self.ft;
         let lu = &self.lu;
+        let jac = &self.jac;
         let stats = &mut self.stats;
         let inv_h = 1.0 / h;
-
-        // Stage 1.
-        for i in 0..n {
-            u1[i] = self.f0[i] + h * D[0] * ft[i];
-        }
-        lu.solve(u1);
-        // Stage 2.
-        for i in 0..n {
-            ytmp[i] = y[i] + A21 * u1[i];
-        }
-        let ts = t0 + C[1] * h;
-        if let Some(index) = eval_rhs(sys, ts, ytmp, fs, stats)? {
-            return Ok(Attempt::NonFinite { t: ts, index });
-        }
-        for i in 0..n {
-            u2[i] = fs[i] + h * D[1] * ft[i] + C21 * inv_h * u1[i];
-        }
-        lu.solve(u2);
-        // Stage 3.
-        for i in 0..n {
-            ytmp[i] = y[i] + A31 * u1[i] + A32 * u2[i];
-        }
-        let ts = t0 + C[2] * h;
-        if let Some(index) = eval_rhs(sys, ts, ytmp, fs, stats)? {
-            return Ok(Attempt::NonFinite { t: ts, index });
-        }
-        for i in 0..n {
-            u3[i] = fs[i] + h * D[2] * ft[i] + inv_h * (C31 * u1[i] + C32 * u2[i]);
-        }
-        lu.solve(u3);
-        // Stage 4.
-        for i in 0..n {
-            ytmp[i] = y[i] + A41 * u1[i] + A42 * u2[i] + A43 * u3[i];
-        }
-        let ts = t0 + C[3] * h;
-        if let Some(index) = eval_rhs(sys, ts, ytmp, fs, stats)? {
-            return Ok(Attempt::NonFinite { t: ts, index });
-        }
-        for i in 0..n {
-            u4[i] = fs[i] + h * D[3] * ft[i] + inv_h * (C41 * u1[i] + C42 * u2[i] + C43 * u3[i]);
-        }
-        lu.solve(u4);
-        // Stage 5 (c5 = 1).
-        for i in 0..n {
-            ytmp[i] = y[i] + A51 * u1[i] + A52 * u2[i] + A53 * u3[i] + A54 * u4[i];
-        }
-        if let Some(index) = eval_rhs(sys, t1, ytmp, fs, stats)? {
-            return Ok(Attempt::NonFinite { t: t1, index });
+        for st in 0..tab.stages {
+            let (done, rest) = u.split_at_mut(st);
+            let ui = &mut rest[0];
+            let f: &[f64] = if st == 0 {
+                &self.f0
+            } else {
+                let arow = &tab.a[st];
+                for i in 0..n {
+                    let mut v = y[i];
+                    for (j, uj) in done.iter().enumerate() {
+                        v += arow[j] * uj[i];
+                    }
+                    ytmp[i] = v;
+                }
+                let ts = t0 + tab.c[st] * h;
+                if let Some(index) = eval_rhs(sys, ts, ytmp, fs, stats)? {
+                    return Ok(Attempt::NonFinite { t: ts, index });
+                }
+                fs
+            };
+            let grow = &tab.gc[st];
+            let hd = h * tab.d[st];
+            for i in 0..n {
+                let mut v = f[i] + hd * ft[i];
+                for (j, uj) in done.iter().enumerate() {
+                    v += grow[j] * inv_h * uj[i];
+                }
+                ui[i] = v;
+            }
+            // W = [W_ss 0; −J_qs I/(hγ)]: solve the states, then the quadratures
+            lu.solve(&mut ui[..ns]);
+            let hg = h * tab.gamma;
+            for q in ns..n {
+                let mut v = ui[q];
+                for j in 0..ns {
+                    v += jac[(q, j)] * ui[j];
+                }
+                ui[q] = hg * v;
+            }
         }
         for i in 0..n {
-            u5[i] = fs[i] + inv_h * (C51 * u1[i] + C52 * u2[i] + C53 * u3[i] + C54 * u4[i]);
-        }
-        lu.solve(u5);
-        // Stage 6 (c6 = 1): argument = embedded 3rd-order solution.
-        for i in 0..n {
-            ytmp[i] += u5[i];
-        }
-        if let Some(index) = eval_rhs(sys, t1, ytmp, fs, stats)? {
-            return Ok(Attempt::NonFinite { t: t1, index });
-        }
-        for i in 0..n {
-            u6[i] = fs[i] + inv_h * (C61 * u1[i] + C62 * u2[i] + C63 * u3[i] + C64 * u4[i] + C65 * u5[i]);
-        }
-        lu.solve(u6);
-        for i in 0..n {
-            self.y1[i] = ytmp[i] + u6[i];
-            if !self.y1[i].is_finite() {
+            let mut v = y[i];
+            let mut e = 0.0;
+            for (j, uj) in u.iter().enumerate() {
+                v += tab.m[j] * uj[i];
+                e += tab.e[j] * uj[i];
+            }
+            self.y1[i] = v;
+            self.q2[i] = e; // the error vector, overwritten by the dense output once accepted
+            if !v.is_finite() {
                 return Ok(Attempt::NonFinite { t: t1, index: i });
             }
         }
@@ -454,24 +471,37 @@ impl Rosenbrock {
         let mut s = 0.0;
         for i in 0..n {
             let w = self.opts.atol[i] + self.opts.rtol * y[i].abs().max(self.y1[i].abs());
-            let r = u6[i] / w;
+            let r = self.q2[i] / w;
             s += r * r;
         }
         let err = if n > 0 { (s / n as f64).sqrt() } else { 0.0 };
         Ok(Attempt::Done(err))
     }
 
-    /// Coefficients of the dense output from the stages of the accepted step.
-    fn prepare_dense(&mut self) {
-        for i in 0..self.n {
-            let mut a = 0.0;
-            let mut b = 0.0;
-            for j in 0..5 {
-                a += E1[j] * self.u[j][i];
-                b += E2[j] * self.u[j][i];
+    /// Coefficients of the dense output of the accepted step from t0 to t0 + h
+    /// (needs `self.f1` = f(t1, y1) for the Hermite form).
+    fn prepare_dense(&mut self, y0: &[f64], h: f64) {
+        match &self.tableau.dense {
+            DenseKind::Rodas { e1, e2 } => {
+                for i in 0..self.n {
+                    let mut a = 0.0;
+                    let mut b = 0.0;
+                    for j in 0..e1.len() {
+                        a += e1[j] * self.u[j][i];
+                        b += e2[j] * self.u[j][i];
+                    }
+                    self.q1[i] = a;
+                    self.q2[i] = b;
+                }
             }
-            self.q1[i] = a;
-            self.q2[i] = b;
+            DenseKind::Hermite => {
+                // y(θ) = y0 + θ[Δ + (1 − θ)(q1 + θ q2)] with q1 = h f0 − Δ, q2 = 2Δ − h(f0 + f1)
+                for i in 0..self.n {
+                    let delta = self.y1[i] - y0[i];
+                    self.q1[i] = h * self.f0[i] - delta;
+                    self.q2[i] = 2.0 * delta - h * (self.f0[i] + self.f1[i]);
+                }
+            }
         }
     }
 
@@ -504,10 +534,11 @@ impl Rosenbrock {
     /// Step-size factor after an accepted step with error `err` and size `h` (magnitude).
     fn accepted_factor(&mut self, err: f64, h: f64) -> f64 {
         let e = err.max(1e-10);
-        let mut fac = (SAFETY * e.powf(-ERR_EXPONENT)).clamp(FAC_MIN, FAC_MAX);
+        let x = self.tableau.err_exponent;
+        let mut fac = (SAFETY * e.powf(-x)).clamp(FAC_MIN, FAC_MAX);
         if self.have_acc && self.h_acc > 0.0 {
             // Gustafsson's predictive controller.
-            let gus = SAFETY * (h / self.h_acc) * (self.err_acc / (e * e)).powf(ERR_EXPONENT);
+            let gus = SAFETY * (h / self.h_acc) * (self.err_acc / (e * e)).powf(x);
             fac = fac.min(gus.clamp(FAC_MIN, FAC_MAX));
         }
         self.have_acc = true;
@@ -522,6 +553,30 @@ fn eval_rhs(sys: &mut dyn OdeSystem, t: f64, y: &[f64], out: &mut [f64], stats: 
     stats.rhs_evals += 1;
     sys.rhs(t, y, out).map_err(|source| IntegratorError::Rhs { t, source })?;
     Ok(out.iter().position(|v| !v.is_finite()))
+}
+
+/// Evaluate f and the root functions at one point (one system evaluation
+/// where the system supports it); `Ok(Some(i))` if component `i` of f is not finite.
+fn eval_rhs_and_roots(
+    sys: &mut dyn OdeSystem,
+    t: f64,
+    y: &[f64],
+    out: &mut [f64],
+    g: &mut [f64],
+    stats: &mut Stats,
+) -> Result<Option<usize>, IntegratorError> {
+    if g.is_empty() {
+        return eval_rhs(sys, t, y, out, stats);
+    }
+    stats.rhs_evals += 1;
+    sys.rhs_and_roots(t, y, out, g).map_err(|source| IntegratorError::Rhs { t, source })?;
+    if let Some(i) = out.iter().position(|v| !v.is_finite()) {
+        return Ok(Some(i));
+    }
+    if let Some(i) = g.iter().position(|v| !v.is_finite()) {
+        return Err(IntegratorError::Rhs { t, source: RhsError(format!("root function {i} is not finite")) });
+    }
+    Ok(None)
 }
 
 /// Evaluate the root functions; a non-finite value is reported as an Rhs error.
@@ -551,7 +606,9 @@ impl Integrator for Rosenbrock {
                 source: RhsError(format!("dimension mismatch: system has {} states, y has {}", sys.dim(), y.len())),
             });
         }
-        if y.len() != self.n {
+        let nq = sys.n_quadrature().min(y.len());
+        if y.len() != self.n || nq != self.nq {
+            self.nq = nq;
             self.resize(y.len());
         }
         self.resize_roots(sys.n_roots());
@@ -601,8 +658,9 @@ impl Integrator for Rosenbrock {
             let attempt = self.attempt(sys, *t, t1, y)?;
             let err = match attempt {
                 Attempt::Done(err) if err <= 1.0 || self.fixed_h.is_some() => {
-                    // Derivative at the new point (needed for the next step).
-                    match eval_rhs(sys, t1, &self.y1, &mut self.f1, &mut self.stats)? {
+                    // Derivative at the new point (needed for the next step), and the
+                    // root functions there, in one evaluation of the system.
+                    match eval_rhs_and_roots(sys, t1, &self.y1, &mut self.f1, &mut self.g1, &mut self.stats)? {
                         None => Some(err),
                         Some(index) => {
                             self.stats.rejected += 1;
@@ -619,7 +677,11 @@ impl Integrator for Rosenbrock {
                 Attempt::Done(err) => {
                     self.stats.rejected += 1;
                     failures += 1;
-                    let fac = (SAFETY * err.powf(-ERR_EXPONENT)).clamp(FAC_MIN, 0.9);
+                    // a rejected step of a W-method with an old Jacobian first gets a fresh one
+                    if self.tableau.w_method && self.jac_age > 0 {
+                        self.jac_valid = false;
+                    }
+                    let fac = (SAFETY * err.powf(-self.tableau.err_exponent)).clamp(FAC_MIN_REJECT, 0.9);
                     h *= if err.is_finite() { fac } else { FAC_MIN };
                     after_reject = true;
                     if h < floor || failures > MAX_FAILURES {
@@ -658,8 +720,8 @@ impl Integrator for Rosenbrock {
             steps += 1;
             failures = 0;
             singular = 0;
-            self.prepare_dense();
             let t0 = *t;
+            self.prepare_dense(y, t1 - t0);
 
             // Next step size.
             let mut h_new = if let Some(hf) = self.fixed_h {
@@ -683,7 +745,6 @@ impl Integrator for Rosenbrock {
             let m = self.g0.len();
             let mut root_at = None;
             if m > 0 {
-                eval_roots(sys, t1, &self.y1, &mut self.g1)?;
                 let dense = StepDense { t0, t1, t_end: t1, y0: y, y1: &self.y1, q1: &self.q1, q2: &self.q2 };
                 // Side each function is watched from. Only an `Either` function that
                 // is zero at the start with no side seen since the restart needs a
@@ -769,7 +830,11 @@ impl Integrator for Rosenbrock {
             self.y_cache.copy_from_slice(y);
             self.cache_valid = true;
             self.roots_valid = true;
-            self.jac_valid = false;
+            // a W-method keeps its order with an older Jacobian: reuse it for a while
+            self.jac_age += 1;
+            if !self.tableau.w_method || self.jac_age >= MAX_JACOBIAN_AGE {
+                self.jac_valid = false;
+            }
             debug_assert_eq!(n, y.len());
 
             if last {

@@ -845,3 +845,92 @@ fn autonomous_systems_skip_the_time_column() {
     assert!((y0 - y1).abs() < 1e-12);
     assert_eq!(s0.rhs_evals - s1.rhs_evals, s0.jacobians);
 }
+
+// ---------------------------------------------------------------- ROS34PW2 (W-method)
+
+fn ros34pw2(rtol: f64, atol: f64, n: usize) -> Rosenbrock {
+    Rosenbrock::with_method(Options::with_tolerances(rtol, atol, n), n, crate::Method::Ros34pw2)
+}
+
+#[test]
+fn ros34pw2_keeps_order_three_with_a_reused_jacobian() {
+    // Fixed steps reuse one Jacobian over up to 20 steps: a classical Rosenbrock
+    // method would drop to order 1-2 with it; a W-method keeps its order 3.
+    let run = |h: f64| {
+        let mut sys = plain(3, smooth_rhs);
+        let mut int = ros34pw2(1e-6, 1e-6, 3);
+        int.set_fixed_step(Some(h));
+        let (mut t, mut y) = (0.0, smooth_exact(0.0).to_vec());
+        let mut dense_err: f64 = 0.0;
+        let mut buf = [0.0; 3];
+        int.advance(&mut sys, &mut t, &mut y, 2.0, &mut |d: &dyn Dense| {
+            let tm = 0.5 * (d.t_start() + d.t_end());
+            d.eval(tm, &mut buf);
+            dense_err = dense_err.max(max_err(&buf, &smooth_exact(tm)));
+        })
+        .expect("fixed-step run");
+        let s = int.stats();
+        (max_err(&y, &smooth_exact(2.0)), dense_err, s.jacobians, s.steps)
+    };
+    let hs = [0.1, 0.05, 0.025, 0.0125];
+    let errs: Vec<_> = hs.iter().map(|&h| run(h)).collect();
+    for k in 1..hs.len() {
+        let p = (errs[k - 1].0 / errs[k].0).log2();
+        let pd = (errs[k - 1].1 / errs[k].1).log2();
+        eprintln!(
+            "ROS34PW2 h = {}: err {:.3e} order {p:.2}; dense {:.3e} order {pd:.2}; {} Jacobians for {} steps",
+            hs[k], errs[k].0, errs[k].1, errs[k].2, errs[k].3
+        );
+        assert!(p >= 3.0 - 0.3, "order {p}");
+        assert!(pd >= 3.0 - 0.4, "dense order {pd}");
+        assert!(errs[k].2 * 10 <= errs[k].3, "{} Jacobians for {} steps: not reused", errs[k].2, errs[k].3);
+    }
+}
+
+#[test]
+fn ros34pw2_is_l_stable_and_solves_stiff_references() {
+    let mut sys = plain(1, |_t, y: &[f64], d: &mut [f64]| {
+        d[0] = -1e12 * y[0];
+        Ok(())
+    });
+    let mut int = ros34pw2(1e-6, 1e-9, 1);
+    int.set_fixed_step(Some(1.0));
+    let (mut t, mut y) = (0.0, vec![1.0]);
+    int.advance(&mut sys, &mut t, &mut y, 1.0, &mut no_obs()).expect("step");
+    // exact: R(−1e12) = −2.87e-12 (R(z) ~ 1/z); a W-method's R(∞) also carries the
+    // relative error of its finite-difference Jacobian (ε/δ ≈ 1e-8 here)
+    assert!(y[0].abs() < 1e-7, "R(-1e12) = {}", y[0]);
+
+    let reference = [0.0178659211422, 7.27475146849e-8, 0.982134006110];
+    let mut sys = plain(3, robertson);
+    let opts = Options { rtol: 1e-6, atol: vec![1e-10, 1e-14, 1e-10], ..Options::default() };
+    let mut int = Rosenbrock::with_method(opts, 3, crate::Method::Ros34pw2);
+    let (mut t, mut y) = (0.0, vec![1.0, 0.0, 0.0]);
+    int.advance(&mut sys, &mut t, &mut y, 1e5, &mut no_obs()).expect("Robertson");
+    let s = int.stats();
+    eprintln!("Robertson with ROS34PW2: {y:?}, {s:?}");
+    for i in 0..3 {
+        let rel = (y[i] - reference[i]).abs() / reference[i];
+        assert!(rel < 1e-3, "component {i}: {} vs {} (rel {rel:e})", y[i], reference[i]);
+    }
+    assert!(s.jacobians < s.steps, "{s:?}");
+
+    let mut sys = plain(2, van_der_pol);
+    let mut int = ros34pw2(1e-6, 1e-6, 2);
+    let (mut t, mut y) = (0.0, vec![2.0, 0.0]);
+    int.advance(&mut sys, &mut t, &mut y, 3000.0, &mut no_obs()).expect("Van der Pol");
+    eprintln!("Van der Pol with ROS34PW2: {y:?}, {:?}", int.stats());
+    assert!((y[0] + 1.5106069362).abs() < 1e-3 * 1.5106069362, "y1 = {}", y[0]);
+}
+
+#[test]
+fn ros34pw2_locates_roots_on_its_hermite_dense_output() {
+    // ball falling from 10 m: impact at √(2·10/9.81) s
+    let mut sys = ball_system(1, |_t, y, g| g[0] = y[0]);
+    let mut int = ros34pw2(1e-8, 1e-10, 2);
+    let (mut t, mut y) = (0.0, vec![10.0, 0.0]);
+    let r = int.advance(&mut sys, &mut t, &mut y, 5.0, &mut no_obs()).expect("ball");
+    assert!(matches!(r, Advance::Root { .. }), "{r:?}");
+    let exact = (2.0 * 10.0 / 9.81_f64).sqrt();
+    assert!((t - exact).abs() < 1e-7, "impact at {t}, exact {exact}");
+}

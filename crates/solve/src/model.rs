@@ -87,6 +87,8 @@ pub struct Model {
     pub(crate) junction_guess: Vec<f64>,
     /// Last change of each junction pressure (sizes the next warm-start probe).
     pub(crate) junction_step: Vec<f64>,
+    /// Slope of each junction's flow balance at its last solution (first secant step).
+    pub(crate) junction_slope: Vec<f64>,
     /// Number of right-hand-side evaluations.
     pub evaluations: u64,
     /// Evaluate signals as at rest before t = 0 (see [`crate::rest`]).
@@ -213,6 +215,7 @@ impl Model {
             junction_ports,
             junction_guess: vec![f64::NAN; n_nodes],
             junction_step: vec![0.0; n_nodes],
+            junction_slope: vec![f64::NAN; n_nodes],
             evaluations: 0,
             at_rest: false,
             circuit,
@@ -274,10 +277,12 @@ impl Model {
     pub fn eval_detached(&mut self, t: f64, y: &[f64], g: Option<&mut [f64]>) -> Result<(), ModelError> {
         let guess = self.junction_guess.clone();
         let step = self.junction_step.clone();
+        let slope = self.junction_slope.clone();
         let evaluations = self.evaluations;
         let r = self.eval(t, y, None, g);
         self.junction_guess = guess;
         self.junction_step = step;
+        self.junction_slope = slope;
         self.evaluations = evaluations;
         r
     }
@@ -350,6 +355,7 @@ impl Model {
             junction_ports,
             junction_guess,
             junction_step,
+            junction_slope,
             at_rest,
             n_states,
             ..
@@ -418,7 +424,19 @@ impl Model {
         }
         // 4. junction pressures
         for cluster in &circuit.junction_clusters {
-            junction::solve_cluster(circuit, slots, node_gas, junction_ports, junction_guess, junction_step, cluster, gas, t, y)?;
+            junction::solve_cluster(
+                circuit,
+                slots,
+                node_gas,
+                junction_ports,
+                junction_guess,
+                junction_step,
+                junction_slope,
+                cluster,
+                gas,
+                t,
+                y,
+            )?;
         }
         // 5. flows
         for f in node_inflow.iter_mut() {

@@ -35,5 +35,19 @@ pub fn options_from(sim: &Simulation) -> Result<SimOptions, SolveError> {
     if !(sim.rtol > 0.0 && sim.rtol < 0.1 && sim.atol > 0.0 && sim.atol < 1.0) {
         return Err(SolveError::Settings(format!("tolerances out of range: rtol {} (0..0.1), atol {} (0..1)", sim.rtol, sim.atol)));
     }
-    Ok(SimOptions { t_end, cycles, rtol: sim.rtol, atol: sim.atol, sample_interval, max_step, max_events: 100_000 })
+    let method = match sim.method {
+        graph::netlist::MethodName::Rodas4 => ode::Method::Rodas4,
+        graph::netlist::MethodName::Ros34pw2 => ode::Method::Ros34pw2,
+    };
+    Ok(SimOptions {
+        t_end,
+        cycles,
+        rtol: sim.rtol,
+        atol: sim.atol,
+        sample_interval,
+        record_steps: false,
+        max_step,
+        max_events: 100_000,
+        method,
+    })
 }

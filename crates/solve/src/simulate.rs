@@ -26,17 +26,33 @@ pub struct SimOptions {
     pub rtol: f64,
     /// Absolute tolerance relative to each state's typical size.
     pub atol: f64,
-    /// Output sample interval [s] (0 = only event instants and step ends).
+    /// Output sample interval [s] (0 = no grid: only event instants, and
+    /// step ends if `record_steps`).
     pub sample_interval: f64,
+    /// Record the state at the end of every accepted step (for summaries of
+    /// runs whose traces nobody asked for: far fewer rows than a fine grid).
+    pub record_steps: bool,
     /// Largest step [s].
     pub max_step: f64,
     /// Safety limit on the number of discrete events.
     pub max_events: usize,
+    /// Integration method.
+    pub method: ode::Method,
 }
 
 impl Default for SimOptions {
     fn default() -> Self {
-        SimOptions { t_end: 10.0, cycles: None, rtol: 1e-6, atol: 1e-6, sample_interval: 1e-3, max_step: 0.05, max_events: 100_000 }
+        SimOptions {
+            t_end: 10.0,
+            cycles: None,
+            rtol: 1e-6,
+            atol: 1e-6,
+            sample_interval: 1e-3,
+            record_steps: false,
+            max_step: 0.05,
+            max_events: 100_000,
+            method: ode::Method::default(),
+        }
     }
 }
 
@@ -252,12 +268,10 @@ struct System<'a> {
     error: Option<ModelError>,
 }
 
-impl OdeSystem for System<'_> {
-    fn dim(&self) -> usize {
-        self.model.dim()
-    }
-    fn rhs(&mut self, t: f64, y: &[f64], dydt: &mut [f64]) -> Result<(), RhsError> {
-        match self.model.eval(t, y, Some(dydt), None) {
+impl System<'_> {
+    /// One evaluation of the model for f (and the root functions if asked).
+    fn eval_both(&mut self, t: f64, y: &[f64], dydt: &mut [f64], g: Option<&mut [f64]>) -> Result<(), RhsError> {
+        match self.model.eval(t, y, Some(dydt), g) {
             Ok(()) => {
                 self.error = None;
                 Ok(())
@@ -278,6 +292,18 @@ impl OdeSystem for System<'_> {
                 Err(RhsError(msg))
             }
         }
+    }
+}
+
+impl OdeSystem for System<'_> {
+    fn dim(&self) -> usize {
+        self.model.dim()
+    }
+    fn rhs(&mut self, t: f64, y: &[f64], dydt: &mut [f64]) -> Result<(), RhsError> {
+        self.eval_both(t, y, dydt, None)
+    }
+    fn rhs_and_roots(&mut self, t: f64, y: &[f64], dydt: &mut [f64], g: &mut [f64]) -> Result<(), RhsError> {
+        self.eval_both(t, y, dydt, Some(g))
     }
     fn n_quadrature(&self) -> usize {
         self.model.n_quadratures()
@@ -352,7 +378,7 @@ fn run(model: &mut Model, opts: &SimOptions, mut observer: Option<&mut dyn FnMut
     }
     let options =
         Options { rtol: opts.rtol, atol, h_init: None, h_max: opts.max_step, h_min: 1e-14, max_steps: 50_000_000, root_tol: 1e-12 };
-    let mut integrator = Rosenbrock::new(options, n);
+    let mut integrator = Rosenbrock::with_method(options, n, opts.method);
     let mut t = 0.0;
     let mut result = SimResult {
         columns: model.output_names(),
@@ -408,11 +434,17 @@ fn run(model: &mut Model, opts: &SimOptions, mut observer: Option<&mut dyn FnMut
         let advance = {
             let mut sys = System { model, error: None };
             let interval = opts.sample_interval;
+            let record_steps = opts.record_steps && interval <= 0.0;
             let mut dense_observer = |d: &dyn Dense| {
-                if observing {
+                if observing || record_steps {
                     let mut ys = vec![0.0; n];
                     d.eval(d.t_end(), &mut ys);
-                    step_ends.push((d.t_end(), ys));
+                    if record_steps {
+                        samples.push((d.t_end(), ys.clone()));
+                    }
+                    if observing {
+                        step_ends.push((d.t_end(), ys));
+                    }
                 }
                 if interval <= 0.0 {
                     return;
