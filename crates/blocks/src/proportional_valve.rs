@@ -28,7 +28,7 @@
 //! Zero lap; no flow forces on the spool; C and b do not change with the opening.
 
 use crate::block::*;
-use crate::conductance::restriction_flow;
+use crate::conductance::{restriction_flow, restriction_flow_slopes};
 use crate::iso6358::FlowCharacteristic;
 use crate::params::{ParamSpec, Params, Range};
 use crate::support::Spool;
@@ -102,6 +102,29 @@ impl Block for ProportionalValve {
             out[to] += -f;
         }
     }
+    fn port_flow(&self, ctx: &Ctx, port: usize) -> Option<(PortFlow, f64)> {
+        let s = self.spool.position(ctx.states).clamp(-1.0, 1.0);
+        let (mut sum, mut slope) = (PortFlow::default(), 0.0);
+        for (from, to, side) in PATHS.into_iter().filter(|p| p.0 == port || p.1 == port) {
+            let o = (side * s).max(0.0);
+            let (a, b) = (&ctx.pneumatic[from], &ctx.pneumatic[to]);
+            let (mut f, mut da, mut db) = restriction_flow_slopes(&self.flow, o, a, b, 0.0);
+            if let Some(leak) = &self.leak {
+                let (fl, dla, dlb) = restriction_flow_slopes(leak, 1.0 - o, a, b, 0.0);
+                f += fl;
+                da += dla;
+                db += dlb;
+            }
+            if from == port {
+                sum += f;
+                slope += da;
+            } else {
+                sum += -f;
+                slope -= db;
+            }
+        }
+        Some((sum, slope))
+    }
     fn derivatives(&self, ctx: &Ctx, _b: &Balances, out: &mut [f64]) {
         self.spool.derivatives(Self::command(ctx), ctx.states, out);
     }
@@ -134,6 +157,21 @@ mod tests {
         let mut raw = vec![("C", RawValue::Text("60 L/min/bar".into())), ("b", RawValue::Number(0.3))];
         raw.extend(extra.iter().map(|(k, v)| (*k, RawValue::Text(v.to_string()))));
         ProportionalValve::from_params(&Params::from_raw(PARAMS, raw.iter().map(|(k, v)| (*k, v))).unwrap()).unwrap()
+    }
+
+    #[test]
+    fn port_flow_slopes_match_finite_differences() {
+        let gas = gas::IdealGas::air();
+        let s = |p| gas.state_pt(p, 293.15);
+        // P 6 bar, A 3 bar, B 5.99 bar, exhausts 1 bar
+        let n = [s(6e5), s(3e5), s(5.99e5), s(1e5), s(1.0001e5)];
+        let v = valve(&[("C_leak", "0.5 L/min/bar")]);
+        let x0 = vec![0.0; v.spool.states().len()];
+        for x in [-1.0, -0.4, 0.0, 0.3, 1.0] {
+            let mut st = x0.clone();
+            st[0] = x;
+            crate::speed_control_valve::slope_tests::check_port_flow_slopes(&v, &st, &[x], &n);
+        }
     }
 
     /// Step response of the spool to u = 1 from rest, by RK4.

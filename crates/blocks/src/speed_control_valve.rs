@@ -153,9 +153,40 @@ mod tests {
 }
 
 #[cfg(test)]
-mod slope_tests {
-    use crate::block::{Ctx, PortFlow};
-    use gas::GasModel;
+pub(crate) mod slope_tests {
+    use crate::block::{Block, Ctx, PortFlow};
+    use gas::{GasModel, GasState};
+
+    /// Checks `port_flow` of a multi-port block against `flows` and a central
+    /// difference of `flows` in each port's pressure, at the given states,
+    /// signals and port gas states.
+    pub(crate) fn check_port_flow_slopes(b: &dyn Block, states: &[f64], signals: &[f64], nodes: &[GasState]) {
+        let gas = gas::IdealGas::air();
+        let n = nodes.len();
+        let flows_at = |st: &[GasState]| {
+            let ctx = Ctx { t: 0.0, gas: &gas, states, pneumatic: st, mechanical: &[], signals };
+            let mut o = vec![PortFlow::default(); n];
+            b.flows(&ctx, &mut o);
+            o
+        };
+        let out = flows_at(nodes);
+        for port in 0..n {
+            let ctx = Ctx { t: 0.0, gas: &gas, states, pneumatic: nodes, mechanical: &[], signals };
+            let (f, slope) = b.port_flow(&ctx, port).expect("the block gives its slope");
+            let tol = 1e-12 * out[port].mdot.abs().max(1e-12);
+            assert!((f.mdot - out[port].mdot).abs() <= tol, "{}: port {port} flow {} vs {}", b.type_name(), f.mdot, out[port].mdot);
+            let fd = |dp: f64| {
+                let mut st = nodes.to_vec();
+                let t = st[port].t;
+                st[port] = gas.state_pt(st[port].p + dp, t);
+                flows_at(&st)[port].mdot
+            };
+            let h = 1e-3;
+            let numeric = (fd(h) - fd(-h)) / (2.0 * h);
+            let scale = numeric.abs().max(slope.abs()).max(1e-15);
+            assert!((numeric - slope).abs() <= 1e-4 * scale, "{} port {port}: slope {slope} vs {numeric}", b.type_name());
+        }
+    }
 
     /// `port_flow` of every two-port restriction agrees with `flows` and with a
     /// central difference of `flows` in the port's pressure, on both sides of

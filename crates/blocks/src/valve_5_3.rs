@@ -49,7 +49,7 @@
 //! flow; the pilot spool switches as a whole (no intermediate position).
 
 use crate::block::*;
-use crate::conductance::restriction_flow;
+use crate::conductance::{restriction_flow, restriction_flow_slopes};
 use crate::iso6358::FlowCharacteristic;
 use crate::params::{ParamSpec, Params, Range};
 use crate::support::{switch_root, switch_state};
@@ -288,6 +288,33 @@ impl Block for Valve53 {
             out[path.to] += -f;
         }
     }
+    fn port_flow(&self, ctx: &Ctx, port: usize) -> Option<(PortFlow, f64)> {
+        let s = self.spool(ctx.states);
+        let (mut sum, mut slope) = (PortFlow::default(), 0.0);
+        for path in self.paths.iter().filter(|p| p.from == port || p.to == port) {
+            let opening = match path.group {
+                Group::Side14 => s.max(0.0),
+                Group::Side12 => (-s).max(0.0),
+                Group::Centre => 1.0 - s.abs(),
+            };
+            let (a, b) = (&ctx.pneumatic[path.from], &ctx.pneumatic[path.to]);
+            let (mut f, mut da, mut db) = restriction_flow_slopes(&path.flow, opening, a, b, 0.0);
+            if let Some(leak) = &path.leak {
+                let (fl, dla, dlb) = restriction_flow_slopes(leak, 1.0 - opening, a, b, 0.0);
+                f += fl;
+                da += dla;
+                db += dlb;
+            }
+            if path.from == port {
+                sum += f;
+                slope += da;
+            } else {
+                sum += -f;
+                slope -= db;
+            }
+        }
+        Some((sum, slope))
+    }
     fn derivatives(&self, ctx: &Ctx, _b: &Balances, out: &mut [f64]) {
         if let (Some(d), Some(&s)) = (out.first_mut(), ctx.states.first()) {
             *d = (self.target() - s) / self.spool_tau;
@@ -378,6 +405,20 @@ mod tests {
         let total: f64 = out.iter().map(|f| f.mdot).sum();
         assert!(total.abs() < 1e-15, "mass is conserved inside the valve");
         out.iter().map(|f| f.mdot).collect()
+    }
+
+    #[test]
+    fn port_flow_slopes_match_finite_differences() {
+        let gas = gas::IdealGas::air();
+        let s = |p| gas.state_pt(p, 293.15);
+        // P 6 bar, A 3.99 bar (subsonic towards it), B 2 bar, exhausts 1 bar
+        let n = [s(6e5), s(3.99e5), s(2e5), s(1e5), s(1.0001e5), s(1e5), s(1e5)];
+        for centre in ["closed", "exhaust", "pressure"] {
+            let v = valve(&[("centre", centre), ("C_leak", "0.5 L/min/bar"), ("switching_time", "10 ms")]);
+            for x in [-1.0, -0.4, 0.0, 0.3, 1.0] {
+                crate::speed_control_valve::slope_tests::check_port_flow_slopes(&v, &[x], &[0.0, 0.0], &n);
+            }
+        }
     }
 
     #[test]

@@ -12,10 +12,13 @@
 //!    p₀ + Δp), the return (next crossing downwards) and the mean level of
 //!    the plateau between 1.5 L/c and 2.5 L/c, against L/c, 3L/c and 2Δp.
 //! 2. Air's viscosity (18.1 µPa s): friction damps the wave; reported are
-//!    the same quantities against the finest line (N = 160).
+//!    the same quantities against the finest line (N = 160, or the second
+//!    argument).
 //!
-//! Run: `cargo run --release -p pneumo-cli --example tube_convergence -- out.csv`
+//! Run: `cargo run --release -p pneumo-cli --example tube_convergence -- out.csv [finest N]`
 //! (the CSV holds the closed-end pressure of every N, for `pneumo plot`).
+//! The time of every run is printed (the Jacobian is dense: the cost grows
+//! quickly with N).
 
 use std::path::Path;
 
@@ -75,13 +78,23 @@ fn main() {
     let c = (1.4f64 * 287.05 * 293.15).sqrt();
     let tc = L / c;
     let (t_end, dt) = (6.0 * tc, tc / 400.0);
-    let ns = [2usize, 5, 10, 20, 40, 80, 160];
+    // the finest line (the viscous reference) is the second argument, 160 by default
+    let finest: usize = std::env::args().nth(2).and_then(|a| a.parse().ok()).unwrap_or(160);
+    let ns: Vec<usize> = [2usize, 5, 10, 20, 40, 80, 160].into_iter().filter(|&n| n < finest).chain([finest]).collect();
     let mut columns: Vec<(String, Vec<(f64, f64)>)> = Vec::new();
-    println!("Lossless line, L/c = {:.3} ms, exact: arrival {:.3} ms, return {:.3} ms, plateau 2Δp = {:.3} bar", tc * 1e3, tc * 1e3, 3.0 * tc * 1e3, 2.0 * DP / 1e5);
+    println!(
+        "Lossless line, L/c = {:.3} ms, exact: arrival {:.3} ms, return {:.3} ms, plateau 2Δp = {:.3} bar",
+        tc * 1e3,
+        tc * 1e3,
+        3.0 * tc * 1e3,
+        2.0 * DP / 1e5
+    );
     println!("| N | arrival [ms] | error | return [ms] | error | plateau [bar] | error |");
     println!("|---|---|---|---|---|---|---|");
     for &n in &ns[..ns.len() - 1] {
+        let clock = std::time::Instant::now();
         let p = run(n, 18.1e-6 * 1e-9, t_end, dt);
+        eprintln!("lossless N = {n}: {:.1} s", clock.elapsed().as_secs_f64());
         let (a, b, m) = measures(&p, tc);
         println!(
             "| {n} | {:.3} | {:+.1} % | {:.3} | {:+.1} % | {:.4} | {:+.1} % |",
@@ -94,14 +107,21 @@ fn main() {
         );
         columns.push((format!("lossless_N{n}"), p));
     }
-    let reference = run(160, 18.1e-6, t_end, dt);
+    let reference = run(finest, 18.1e-6, t_end, dt);
     let (ra, rb, rm) = measures(&reference, tc);
     println!();
-    println!("Air's viscosity (18.1 µPa s), against N = 160: arrival {:.3} ms, return {:.3} ms, plateau {:.4} bar", ra * 1e3, rb * 1e3, rm / 1e5);
+    println!(
+        "Air's viscosity (18.1 µPa s), against N = {finest}: arrival {:.3} ms, return {:.3} ms, plateau {:.4} bar",
+        ra * 1e3,
+        rb * 1e3,
+        rm / 1e5
+    );
     println!("| N | arrival [ms] | error | return [ms] | error | plateau [bar] | error |");
     println!("|---|---|---|---|---|---|---|");
     for &n in &ns[..ns.len() - 1] {
+        let clock = std::time::Instant::now();
         let p = run(n, 18.1e-6, t_end, dt);
+        eprintln!("air N = {n}: {:.1} s", clock.elapsed().as_secs_f64());
         let (a, b, m) = measures(&p, tc);
         println!(
             "| {n} | {:.3} | {:+.1} % | {:.3} | {:+.1} % | {:.4} | {:+.1} % |",
@@ -114,7 +134,7 @@ fn main() {
         );
         columns.push((format!("air_N{n}"), p));
     }
-    columns.push(("air_N160".into(), reference));
+    columns.push((format!("air_N{finest}"), reference));
     if let Some(path) = out {
         // the exact lossless square wave and every run, on the common grid
         let grid: Vec<f64> = columns[0].1.iter().map(|s| s.0).collect();
