@@ -34,4 +34,20 @@ $P sweep models/meter_out.json --cycles 3 --jobs 2 \
   --out docs/figures/table1_sweep.csv
 $P plot --sweep docs/figures/table1_sweep.csv --x flow_control.C --y cycle_time_s --series supply.p -o $F/fig5_cycle_time.png \
   --title "Cycle time against speed-control conductance — cf. paper Fig. 5"
+
+# The block library's example circuits (docs/circuits.md, "Circuits of the block library").
+$P simulate models/mid_stop_5_3.json --out "$W/ms.csv"
+$P plot "$W/ms.csv" --signals cyl.piston.x,cyl.head.p,cyl.rod.p -o $F/mid_stop_5_3.png --title "5/3 closed centre: stop in mid-stroke and hold"
+$P simulate models/sequence_ab.json --out "$W/seq.csv"
+$P plot "$W/seq.csv" --signals cyl_a.piston.x,cyl_b.piston.x -o $F/sequence_ab.png --title "Sequence A+ B+ A- B- from limit switches"
+$P simulate models/vertical_lift.json --out "$W/lift.csv"
+$P plot "$W/lift.csv" --signals line.p,cyl.head.p,cyl.piston.x -o $F/vertical_lift.png --title "Vertical lift of 50 kg: regulated line at 5 barg"
+$P simulate models/hose_5m.json --cycles 1 --out "$W/hose.csv"
+$P plot "$W/hose.csv" --signals valve_port.p,hose.p10,cyl.head.p -o $F/hose_5m.png --title "5 m hose: the pressure step at the valve, mid-hose and at the cylinder"
+$P simulate models/quick_exhaust.json --out "$W/qev.csv"
+$P plot "$W/qev.csv" --signals cyl.piston.x,cyl.head.p -o $F/quick_exhaust.png --title "Quick-exhaust valve at the head port"
+$P simulate models/cushioning.json --cycles 1 --out "$W/cush.csv"
+$P plot "$W/cush.csv" --signals cyl.piston.v,cyl.rod.p -o $F/cushioning.png --title "End-of-stroke cushioning: speed and cushion pressure"
+$P simulate models/position_control.json --out "$W/servo.csv"
+$P plot "$W/servo.csv" --signals setpoint.command,sensor.x -o $F/position_control.png --title "Servo-pneumatic position control: setpoint and position"
 echo "figures written to $F"

@@ -1,8 +1,29 @@
 //! The component contract: what every block exposes to `graph` and `solve`.
 //!
-//! A block is a black box with ports. `graph` only reads [`Block::ports`] to
-//! wire blocks and assign causality; `solve` only calls the evaluation phases
-//! below, in this order, once per right-hand-side evaluation:
+//! `graph` and `solve` know a block only through this trait: they never
+//! match on a block's type name. What they read:
+//!
+//! - **Ports** ([`Block::ports`]): each port declares its domain and causal
+//!   role ([`PortKind`]) and, for signals, its SI unit ([`PortSpec::unit`]).
+//!   `graph` wires ports of one domain only, gives a pneumatic node its
+//!   pressure from its one effort port, and makes a node without one an
+//!   algebraic junction.
+//! - **Gas role** ([`Block::gas_role`], [`GasRole`]): whether the block
+//!   stores gas (a capacity: chamber, tube), passes it without storing it (a
+//!   pure restriction: conductance, valves, regulators), lets it cross the
+//!   circuit boundary (sources, atmosphere), or carries none. The balance
+//!   check counts boundary flows and stored gas by this declaration, the rest
+//!   state finds sources, capacities and passages by it.
+//! - **Internal states** ([`Block::states`]) with their units, integrated by
+//!   `solve`; a block with none is algebraic. Discrete states change only in
+//!   [`Block::on_event`].
+//! - **Parameters** ([`crate::params::ParamSpec`], listed in the registry):
+//!   shared sets — the ISO 6358 characteristic ([`crate::iso6358::PARAMS`]),
+//!   the thermal wall ([`crate::chamber::THERMAL_WALL`]) — are declared once
+//!   and joined into a block's list with [`crate::param_set!`].
+//!
+//! `solve` calls the evaluation phases below, in this order, once per
+//! right-hand-side evaluation:
 //!
 //! 1. [`Block::kinematics`] — inertias publish position and velocity of their
 //!    mechanical port from their states (integral causality).
@@ -25,7 +46,8 @@
 //! - Mechanical translational port: position x [m], velocity v [m/s] and force
 //!   F [N] are positive in the extend direction; a force returned by a block
 //!   is the force it exerts ON the node.
-//! - Signal ports carry plain f64 values in the SI unit given in their docs.
+//! - Signal ports carry plain f64 values in the SI unit their [`PortSpec`]
+//!   declares ("1" for on/off signals: ≥ 0.5 is on).
 
 use gas::{GasModel, GasState};
 
@@ -34,7 +56,11 @@ use gas::{GasModel, GasState};
 pub enum PortKind {
     /// Pneumatic port where the block imposes p and T (chamber, pressure source).
     PneumaticEffort,
-    /// Pneumatic port where the block computes ṁ and Ė from the node state (restriction).
+    /// Pneumatic port where the block computes ṁ and Ė from the node state
+    /// (restriction, flow source, a sensor that only reads the node). The
+    /// flow into the block must be continuous and non-decreasing in the
+    /// port's node pressure (all else fixed): the junction solve between
+    /// restrictions brackets its root on that.
     PneumaticFlow,
     /// Mechanical port where the block imposes x and v (moving mass).
     MechanicalInertia,
@@ -249,16 +275,20 @@ pub enum EventKind {
     Time,
 }
 
-/// Record of one completed actuator cycle (extend then retract).
-#[derive(Debug, Clone, Copy, PartialEq)]
+/// Record of one completed cycle of a controller (an actuator's extend and
+/// retract for a cycler; one pass through a sequencer's steps).
+#[derive(Debug, Clone, PartialEq, Default)]
 pub struct CycleRecord {
+    /// Id of the controller that completed it (filled in by `solve`; blocks leave it empty).
+    pub controller: String,
     /// Time of the extend command [s].
     pub start: f64,
-    /// Extend stroke time, from the extend command to the end of stroke [s].
+    /// Extend stroke time, from the extend command to the end of stroke [s]
+    /// (NaN for a controller without strokes).
     pub extend: f64,
-    /// Retract stroke time, from the retract command back to 0 [s].
+    /// Retract stroke time, from the retract command back to 0 [s] (NaN without strokes).
     pub retract: f64,
-    /// Time of the retract command [s].
+    /// Time of the retract command [s] (NaN without strokes).
     pub retract_start: f64,
     /// Whole cycle, including dwells [s].
     pub total: f64,
@@ -279,6 +309,19 @@ pub struct InitCtx<'a> {
     pub gas: &'a dyn GasModel,
     /// Position and velocity at each mechanical port (inertias initialised first).
     pub mechanical: &'a [MechState],
+}
+
+/// A port a block holds at a pressure while the circuit rests (see [`Block::rest_pressure`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct RestPressure {
+    /// The held port, as an index among the block's pneumatic ports.
+    pub port: usize,
+    /// The port the gas comes from, among the pneumatic ports (its temperature is taken).
+    pub from: usize,
+    /// Pressure held [Pa] (absolute).
+    pub pressure: f64,
+    /// Whether gas above that pressure is let out too (a relieving regulator), or only gas below is filled up.
+    pub relieving: bool,
 }
 
 /// Initial values a block leaves open, which a rest-state computation may
@@ -316,6 +359,27 @@ pub enum Fact {
     CommandLevels(Vec<f64>),
     /// An on/off command input: released at `released`, actuated at `actuated`.
     CommandThresholds { released: f64, actuated: f64 },
+    /// Outlet pressure [Pa] a regulator is set to, stated at its supply
+    /// port: the supply that reaches this port must be higher (an error otherwise).
+    SetPressure(f64),
+}
+
+/// What a block does with gas (see the module documentation).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum GasRole {
+    /// No gas passes through it or is stored in it: mechanical and signal
+    /// blocks, and sensors whose pneumatic port only reads the node.
+    None,
+    /// Stores gas: its states hold a mass and an internal energy, reported by
+    /// [`Block::stored`], with wall heat and boundary work reported by
+    /// [`Block::exchange`]. A chamber (effort port) or a tube (flow ports).
+    Capacity,
+    /// Passes gas between its ports without storing any: at every instant
+    /// Σ ṁ = 0 and Σ Ė = 0 over its ports (valves, regulators, restrictions).
+    Restriction,
+    /// Gas enters or leaves the circuit here (pressure source, atmosphere,
+    /// mass-flow source): the flows at its ports cross the circuit boundary.
+    Boundary,
 }
 
 /// A component of a pneumatic circuit.
@@ -328,10 +392,18 @@ pub trait Block: std::fmt::Debug + Send + Sync {
     fn type_name(&self) -> &'static str;
     /// Ports, in a fixed order.
     fn ports(&self) -> &[PortSpec];
+    /// What the block does with gas; every block declares it.
+    fn gas_role(&self) -> GasRole;
     /// Continuous states.
     fn states(&self) -> &[StateSpec] {
         &[]
     }
+    /// Initial states that follow from the block's inputs at t = 0, for a
+    /// block whose states track an input (a sensor's lag starts at the value
+    /// it reads, a filter at its input). Called once the other initial states
+    /// are set and the circuit has been evaluated with them; `states` holds
+    /// the values [`Block::initial_states`] gave.
+    fn initial_states_from_inputs(&self, _ctx: &Ctx, _states: &mut [f64]) {}
     /// Typical magnitude of each state, for absolute tolerances.
     fn state_scales(&self, _init: &[f64], _out: &mut [f64]) {}
     /// Initial values of the states.
@@ -414,11 +486,28 @@ pub trait Block: std::fmt::Debug + Send + Sync {
     fn finished(&self) -> bool {
         false
     }
+    /// Whether the block reports completed cycles ([`EventOutcome::cycle`]):
+    /// a run asked for N cycles ends when every such controller has completed N.
+    fn counts_cycles(&self) -> bool {
+        false
+    }
+    /// Mass [kg] a force block adds to the moving mass of the mechanical node
+    /// it acts on (a load carried by the rod). Piecewise constant: it may
+    /// change only in [`Block::on_event`].
+    fn carried_mass(&self) -> f64 {
+        0.0
+    }
     /// Signal outputs while the circuit rests before t = 0: a controller is
     /// released (its commands at their idle value), a sensor reads the state.
     /// Default: the same as [`Block::signal_outputs`].
     fn rest_signal_outputs(&self, ctx: &Ctx, out: &mut [f64]) {
         self.signal_outputs(ctx, out)
+    }
+    /// A pressure this block holds one of its pneumatic ports at while the
+    /// circuit rests (a regulator's outlet at its set pressure), which the
+    /// rest state uses instead of probing the block for open paths.
+    fn rest_pressure(&self, _ctx: &Ctx) -> Option<RestPressure> {
+        None
     }
     /// Initial values left open by the user, which a rest-state computation may set.
     fn free_initial(&self) -> FreeInitial {
@@ -426,6 +515,10 @@ pub trait Block: std::fmt::Debug + Send + Sync {
     }
     /// Set the initial gas state of a capacity (absolute p [Pa], T [K]).
     fn set_initial_gas(&mut self, _p: f64, _t: f64) {}
+    /// The initial gas state (p [Pa], T [K]) of a capacity, given or default.
+    fn initial_gas(&self) -> Option<(f64, f64)> {
+        None
+    }
     /// Set the initial position [m] of an inertia, at rest.
     fn set_initial_position(&mut self, _x: f64) {}
     /// Running integrals the block keeps for statistics of the run (not read

@@ -64,14 +64,9 @@ use crate::params::{ParamSpec, Params, Range};
 use gas::GasState;
 use units::dim;
 
-/// Parameters of the chamber block.
-pub const PARAMS: &[ParamSpec] = &[
-    ParamSpec::quantity("dead_volume", dim::VOLUME, None, Range::NonNegative, "cm3", "volume at zero gas-column length"),
-    ParamSpec::quantity("area", dim::AREA, Some(0.0), Range::NonNegative, "cm2", "piston face area"),
-    ParamSpec::quantity("bore", dim::LENGTH, Some(0.0), Range::NonNegative, "mm", "cylinder bore (alternative to area)"),
-    ParamSpec::quantity("rod_diameter", dim::LENGTH, Some(0.0), Range::NonNegative, "mm", "rod diameter on this side (with bore)"),
-    ParamSpec::choice("orientation", &["extend", "retract"], 0, "volume grows on extend (head side) or on retract (rod side)"),
-    ParamSpec::quantity("length_at_zero", dim::LENGTH, Some(0.0), Range::NonNegative, "mm", "gas-column length at x = 0"),
+/// The thermal wall of a capacity: time constant τ_T and wall temperature
+/// (paper Eq. 8), declared once and shared by the chamber and the tube.
+pub const THERMAL_WALL: &[ParamSpec] = &[
     ParamSpec::quantity(
         "tau_thermal",
         dim::TIME,
@@ -81,6 +76,23 @@ pub const PARAMS: &[ParamSpec] = &[
         "thermal time constant tau_T (inf = adiabatic)",
     ),
     ParamSpec::quantity("T_wall", dim::TEMPERATURE, Some(293.15), Range::GasTemperature, "K", "wall temperature"),
+];
+
+/// Parameters of the chamber block.
+pub const PARAMS: &[ParamSpec] = crate::param_set!(&[
+    ParamSpec::quantity("dead_volume", dim::VOLUME, None, Range::NonNegative, "cm3", "volume at zero gas-column length"),
+    ParamSpec::quantity("area", dim::AREA, Some(0.0), Range::NonNegative, "cm2", "piston face area"),
+    ParamSpec::quantity("bore", dim::LENGTH, Some(0.0), Range::NonNegative, "mm", "cylinder bore (alternative to area)"),
+    ParamSpec::quantity("rod_diameter", dim::LENGTH, Some(0.0), Range::NonNegative, "mm", "rod diameter on this side (with bore)"),
+    ParamSpec::choice("orientation", &["extend", "retract"], 0, "volume grows on extend (head side) or on retract (rod side)"),
+    ParamSpec::quantity("length_at_zero", dim::LENGTH, Some(0.0), Range::NonNegative, "mm", "gas-column length at x = 0"),
+    ],
+    THERMAL_WALL,
+    INITIAL_GAS
+);
+
+/// Initial gas state of a capacity, free for the rest state unless given.
+pub const INITIAL_GAS: &[ParamSpec] = &[
     ParamSpec::quantity("p0", dim::PRESSURE, Some(101_325.0), Range::AbsolutePressure, "bar", "initial pressure (absolute)"),
     ParamSpec::quantity("T0", dim::TEMPERATURE, Some(293.15), Range::GasTemperature, "K", "initial temperature"),
 ];
@@ -287,6 +299,9 @@ impl Block for Chamber {
             PORTS_TANK
         }
     }
+    fn gas_role(&self) -> GasRole {
+        GasRole::Capacity
+    }
     fn states(&self) -> &[StateSpec] {
         STATES
     }
@@ -316,6 +331,9 @@ impl Block for Chamber {
     fn set_initial_gas(&mut self, p: f64, t: f64) {
         self.p0 = p;
         self.t0 = t;
+    }
+    fn initial_gas(&self) -> Option<(f64, f64)> {
+        Some((self.p0, self.t0))
     }
     fn initial_states(&self, ctx: &InitCtx, out: &mut [f64]) {
         let x = self.position(ctx.mechanical).x;
@@ -388,6 +406,17 @@ impl Block for Chamber {
         out[5] = self.polytropic_estimate(ctx.gas, m, t, mech.x, &r);
     }
 }
+
+/// Registry entry of `chamber`.
+pub const TYPE: crate::registry::BlockType = crate::registry::BlockType {
+    name: "chamber",
+    family: crate::registry::Family::Capacities,
+    doc: "variable-volume pneumatic capacity (Eq. 5-17)",
+    params: PARAMS,
+    ports: PORTS_CYLINDER,
+    outputs: OUTPUTS,
+    build: |p| crate::registry::boxed(Chamber::from_params(p)),
+};
 
 #[cfg(test)]
 mod tests {

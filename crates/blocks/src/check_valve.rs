@@ -25,16 +25,13 @@ use crate::iso6358::FlowCharacteristic;
 use crate::params::{ParamSpec, Params, Range};
 use units::dim;
 
-pub const PARAMS: &[ParamSpec] = &[
-    ParamSpec::quantity("C", dim::CONDUCTANCE, None, Range::Positive, "L/min/bar", "sonic conductance when open"),
-    ParamSpec::quantity("b", dim::DIMENSIONLESS, None, Range::OpenUnit, "", "critical pressure ratio"),
-    ParamSpec::quantity("m", dim::DIMENSIONLESS, Some(0.5), Range::Closed(0.1, 1.0), "", "subsonic index"),
-    ParamSpec::quantity("b_lam", dim::DIMENSIONLESS, Some(0.999), Range::OpenUnit, "", "laminar pressure ratio"),
-    ParamSpec::quantity("T_ref", dim::TEMPERATURE, Some(293.15), Range::GasTemperature, "K", "reference temperature"),
-    ParamSpec::quantity("rho_ref", dim::DENSITY, Some(1.185), Range::Positive, "kg/m3", "reference density"),
-    ParamSpec::quantity("cracking_pressure", dim::PRESSURE, Some(0.0), Range::NonNegative, "bar", "opening pressure difference"),
-    ParamSpec::quantity("opening_range", dim::PRESSURE, Some(1000.0), Range::Positive, "bar", "pressure rise from cracking to fully open"),
-];
+pub const PARAMS: &[ParamSpec] = crate::param_set!(
+    crate::iso6358::PARAMS,
+    &[
+        ParamSpec::quantity("cracking_pressure", dim::PRESSURE, Some(0.0), Range::NonNegative, "bar", "opening pressure difference"),
+        ParamSpec::quantity("opening_range", dim::PRESSURE, Some(1000.0), Range::Positive, "bar", "pressure rise from cracking to fully open"),
+    ]
+);
 pub const PORTS: &[PortSpec] =
     &[PortSpec::new("a", PortKind::PneumaticFlow, "inlet"), PortSpec::new("b", PortKind::PneumaticFlow, "outlet")];
 pub const OUTPUTS: &[OutputSpec] = &[OutputSpec { name: "mdot", unit: "kg/s" }];
@@ -98,6 +95,9 @@ impl Block for CheckValve {
     fn ports(&self) -> &[PortSpec] {
         PORTS
     }
+    fn gas_role(&self) -> GasRole {
+        GasRole::Restriction
+    }
     fn flows(&self, ctx: &Ctx, out: &mut [PortFlow]) {
         let f = self.valve.flow(&ctx.pneumatic[0], &ctx.pneumatic[1]);
         out[0] = f;
@@ -114,6 +114,17 @@ impl Block for CheckValve {
         out[0] = Some(self.valve.flow(&ctx.pneumatic[0], &ctx.pneumatic[1]).mdot);
     }
 }
+
+/// Registry entry of `check_valve`.
+pub const TYPE: crate::registry::BlockType = crate::registry::BlockType {
+    name: "check_valve",
+    family: crate::registry::Family::Restrictions,
+    doc: "one-way restriction with cracking pressure",
+    params: PARAMS,
+    ports: PORTS,
+    outputs: OUTPUTS,
+    build: |p| crate::registry::boxed(CheckValve::from_params(p)),
+};
 
 #[cfg(test)]
 mod tests {

@@ -31,33 +31,23 @@ use crate::params::{ParamSpec, Params, Range};
 use gas::GasState;
 use units::dim;
 
-pub const PARAMS: &[ParamSpec] = &[
-    ParamSpec::quantity("C", dim::CONDUCTANCE, None, Range::Positive, "L/min/bar", "sonic conductance"),
-    ParamSpec::quantity("b", dim::DIMENSIONLESS, None, Range::OpenUnit, "", "critical pressure ratio"),
-    ParamSpec::quantity("m", dim::DIMENSIONLESS, Some(0.5), Range::Closed(0.1, 1.0), "", "subsonic index (ISO 6358-1:2013)"),
-    ParamSpec::quantity("b_lam", dim::DIMENSIONLESS, Some(0.999), Range::OpenUnit, "", "laminar pressure ratio"),
-    ParamSpec::quantity("T_ref", dim::TEMPERATURE, Some(293.15), Range::GasTemperature, "K", "reference temperature"),
-    ParamSpec::quantity("rho_ref", dim::DENSITY, Some(1.185), Range::Positive, "kg/m3", "reference density"),
-    ParamSpec::quantity(
+pub const PARAMS: &[ParamSpec] = crate::param_set!(
+    crate::iso6358::PARAMS,
+    &[ParamSpec::quantity(
         "heat_conductance",
         dim::HEAT_CONDUCTANCE,
         Some(0.0),
         Range::NonNegative,
         "W/K",
         "port conduction G, Q_c = G (T_a - T_b)",
-    ),
-];
+    )]
+);
 pub const PORTS: &[PortSpec] =
     &[PortSpec::new("a", PortKind::PneumaticFlow, "side a"), PortSpec::new("b", PortKind::PneumaticFlow, "side b")];
 pub const OUTPUTS: &[OutputSpec] = &[OutputSpec { name: "mdot", unit: "kg/s" }];
 
-/// Build a flow characteristic from the standard parameter names with a prefix ("" or "check_").
-pub fn characteristic(p: &Params, c: &str, b: &str) -> Result<FlowCharacteristic, crate::BlockError> {
-    Ok(FlowCharacteristic::new(p.get(c), p.get(b))?
-        .with_subsonic_index(p.get("m"))?
-        .with_laminar_ratio(p.get("b_lam"))?
-        .with_reference(p.get("T_ref"), p.get("rho_ref"))?)
-}
+/// Build a flow characteristic from the parameters named `c`, `b` and the shared ISO 6358 set.
+pub use crate::iso6358::from_params as characteristic;
 
 /// Flow from side a to side b of a restriction with an opening factor in [0, 1].
 ///
@@ -110,6 +100,9 @@ impl Block for Conductance {
     fn ports(&self) -> &[PortSpec] {
         PORTS
     }
+    fn gas_role(&self) -> GasRole {
+        GasRole::Restriction
+    }
     fn flows(&self, ctx: &Ctx, out: &mut [PortFlow]) {
         let f = restriction_flow(&self.flow, 1.0, &ctx.pneumatic[0], &ctx.pneumatic[1], self.heat_conductance);
         out[0] = f;
@@ -126,6 +119,17 @@ impl Block for Conductance {
         out[0] = Some(self.flow.mass_flow(ctx.pneumatic[0].p, ctx.pneumatic[0].t, ctx.pneumatic[1].p, ctx.pneumatic[1].t));
     }
 }
+
+/// Registry entry of `conductance`.
+pub const TYPE: crate::registry::BlockType = crate::registry::BlockType {
+    name: "conductance",
+    family: crate::registry::Family::Restrictions,
+    doc: "ISO 6358 restriction (Eq. 33-35)",
+    params: PARAMS,
+    ports: PORTS,
+    outputs: OUTPUTS,
+    build: |p| crate::registry::boxed(Conductance::from_params(p)),
+};
 
 #[cfg(test)]
 mod tests {

@@ -119,6 +119,9 @@ impl Block for Cycler {
     fn ports(&self) -> &[PortSpec] {
         PORTS
     }
+    fn gas_role(&self) -> GasRole {
+        GasRole::None
+    }
     fn signal_outputs(&self, _ctx: &Ctx, out: &mut [f64]) {
         out[0] = self.command();
     }
@@ -178,6 +181,7 @@ impl Block for Cycler {
                 let finished = self.cycles > 0 && self.done >= self.cycles;
                 let next = if finished { t } else { t + self.dwell_retracted };
                 outcome.cycle = Some(CycleRecord {
+                    controller: String::new(),
                     start: self.cycle_start,
                     extend: self.extend_time,
                     retract,
@@ -204,7 +208,21 @@ impl Block for Cycler {
     fn finished(&self) -> bool {
         self.phase == Phase::Done
     }
+    fn counts_cycles(&self) -> bool {
+        true
+    }
 }
+
+/// Registry entry of `cycler`.
+pub const TYPE: crate::registry::BlockType = crate::registry::BlockType {
+    name: "cycler",
+    family: crate::registry::Family::Control,
+    doc: "limit-switch cycler (extend/retract for N cycles)",
+    params: PARAMS,
+    ports: PORTS,
+    outputs: &[],
+    build: |p| crate::registry::boxed(Cycler::from_params(p)),
+};
 
 #[cfg(test)]
 mod tests {

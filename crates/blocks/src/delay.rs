@@ -66,6 +66,9 @@ impl Block for Delay {
     fn ports(&self) -> &[PortSpec] {
         PORTS
     }
+    fn gas_role(&self) -> GasRole {
+        GasRole::None
+    }
     fn states(&self) -> &[StateSpec] {
         if self.delay > 0.0 {
             STATES
@@ -115,6 +118,17 @@ impl Block for Delay {
         EventOutcome { cycle: None, note: Some(format!("delayed change to {}", self.level)) }
     }
 }
+
+/// Registry entry of `delay`.
+pub const TYPE: crate::registry::BlockType = crate::registry::BlockType {
+    name: "delay",
+    family: crate::registry::Family::Control,
+    doc: "transport delay of a piecewise-constant signal",
+    params: PARAMS,
+    ports: PORTS,
+    outputs: &[],
+    build: |p| crate::registry::boxed(Delay::from_params(p)),
+};
 
 #[cfg(test)]
 mod tests {

@@ -39,20 +39,8 @@ use crate::iso6358::FlowCharacteristic;
 use crate::params::{ParamSpec, Params, Range};
 use units::dim;
 
-macro_rules! valve_params {
-    ($($extra:expr),*) => {
-        &[
-            ParamSpec::quantity("C", dim::CONDUCTANCE, None, Range::Positive, "L/min/bar", "sonic conductance of every path"),
-            ParamSpec::quantity("b", dim::DIMENSIONLESS, None, Range::OpenUnit, "", "critical pressure ratio of every path"),
-            ParamSpec::quantity("m", dim::DIMENSIONLESS, Some(0.5), Range::Closed(0.1, 1.0), "", "subsonic index"),
-            ParamSpec::quantity("b_lam", dim::DIMENSIONLESS, Some(0.999), Range::OpenUnit, "", "laminar pressure ratio"),
-            ParamSpec::quantity("T_ref", dim::TEMPERATURE, Some(293.15), Range::GasTemperature, "K", "reference temperature"),
-            ParamSpec::quantity("rho_ref", dim::DENSITY, Some(1.185), Range::Positive, "kg/m3", "reference density"),
-            ParamSpec::quantity("switching_time", dim::TIME, Some(0.0), Range::NonNegative, "ms", "spool travel time (0 = instant)"),
-            $($extra),*
-        ]
-    };
-}
+const SWITCHING_TIME: ParamSpec =
+    ParamSpec::quantity("switching_time", dim::TIME, Some(0.0), Range::NonNegative, "ms", "spool travel time (0 = instant)");
 
 const EXHAUST_C: ParamSpec = ParamSpec::quantity(
     "C_exhaust",
@@ -72,9 +60,9 @@ const EXHAUST_B: ParamSpec = ParamSpec::quantity(
 );
 const NORMALLY_OPEN: ParamSpec = ParamSpec::choice("normally_open", &["no", "yes"], 0, "valve passes P->A (3/2) or a<->b (2/2) at rest");
 
-pub const PARAMS_5_2: &[ParamSpec] = valve_params!(EXHAUST_C, EXHAUST_B);
-pub const PARAMS_3_2: &[ParamSpec] = valve_params!(EXHAUST_C, EXHAUST_B, NORMALLY_OPEN);
-pub const PARAMS_2_2: &[ParamSpec] = valve_params!(NORMALLY_OPEN);
+pub const PARAMS_5_2: &[ParamSpec] = crate::param_set!(crate::iso6358::PARAMS, &[SWITCHING_TIME, EXHAUST_C, EXHAUST_B]);
+pub const PARAMS_3_2: &[ParamSpec] = crate::param_set!(crate::iso6358::PARAMS, &[SWITCHING_TIME, EXHAUST_C, EXHAUST_B, NORMALLY_OPEN]);
+pub const PARAMS_2_2: &[ParamSpec] = crate::param_set!(crate::iso6358::PARAMS, &[SWITCHING_TIME, NORMALLY_OPEN]);
 
 pub const PORTS_5_2: &[PortSpec] = &[
     PortSpec::new("P", PortKind::PneumaticFlow, "supply"),
@@ -124,10 +112,7 @@ impl DirectionalValve {
         let exhaust = if with_exhaust && (p.was_given("C_exhaust") || p.was_given("b_exhaust")) {
             let c = if p.was_given("C_exhaust") { p.get("C_exhaust") } else { p.get("C") };
             let b = if p.was_given("b_exhaust") { p.get("b_exhaust") } else { p.get("b") };
-            FlowCharacteristic::new(c, b)?
-                .with_subsonic_index(p.get("m"))?
-                .with_laminar_ratio(p.get("b_lam"))?
-                .with_reference(p.get("T_ref"), p.get("rho_ref"))?
+            crate::iso6358::with_shared(p, c, b)?
         } else {
             supply
         };
@@ -189,6 +174,9 @@ impl Block for DirectionalValve {
     fn ports(&self) -> &[PortSpec] {
         self.ports
     }
+    fn gas_role(&self) -> GasRole {
+        GasRole::Restriction
+    }
     fn facts(&self) -> Vec<(usize, Fact)> {
         let command = self.ports.iter().position(|p| p.kind == PortKind::SignalIn).unwrap_or(0);
         vec![(command, Fact::CommandThresholds { released: 0.0, actuated: 1.0 })]
@@ -247,6 +235,39 @@ impl Block for DirectionalValve {
         out[0] = Some(self.spool(ctx));
     }
 }
+
+/// Registry entry of `valve_5_2`.
+pub const TYPE_5_2: crate::registry::BlockType = crate::registry::BlockType {
+    name: "valve_5_2",
+    family: crate::registry::Family::DirectionalValves,
+    doc: "5/2 directional valve",
+    params: PARAMS_5_2,
+    ports: PORTS_5_2,
+    outputs: OUTPUTS,
+    build: |p| crate::registry::boxed(DirectionalValve::five_two(p)),
+};
+
+/// Registry entry of `valve_3_2`.
+pub const TYPE_3_2: crate::registry::BlockType = crate::registry::BlockType {
+    name: "valve_3_2",
+    family: crate::registry::Family::DirectionalValves,
+    doc: "3/2 directional valve",
+    params: PARAMS_3_2,
+    ports: PORTS_3_2,
+    outputs: OUTPUTS,
+    build: |p| crate::registry::boxed(DirectionalValve::three_two(p)),
+};
+
+/// Registry entry of `valve_2_2`.
+pub const TYPE_2_2: crate::registry::BlockType = crate::registry::BlockType {
+    name: "valve_2_2",
+    family: crate::registry::Family::DirectionalValves,
+    doc: "2/2 directional valve",
+    params: PARAMS_2_2,
+    ports: PORTS_2_2,
+    outputs: OUTPUTS,
+    build: |p| crate::registry::boxed(DirectionalValve::two_two(p)),
+};
 
 #[cfg(test)]
 mod tests {

@@ -118,6 +118,9 @@ impl Block for Friction {
     fn ports(&self) -> &[PortSpec] {
         PORTS
     }
+    fn gas_role(&self) -> GasRole {
+        GasRole::None
+    }
     fn forces(&self, ctx: &Ctx, out: &mut [PortForce]) {
         let (p1, p2) = (ctx.signals[0], ctx.signals[1]);
         let v = ctx.mechanical[0].v;
@@ -151,6 +154,17 @@ pub fn breaks_away(applied: f64, breakaway: f64) -> Option<f64> {
         None
     }
 }
+
+/// Registry entry of `friction`.
+pub const TYPE: crate::registry::BlockType = crate::registry::BlockType {
+    name: "friction",
+    family: crate::registry::Family::Mechanics,
+    doc: "seal friction, Eq. 37, stick-slip (Karnopp 1985)",
+    params: PARAMS,
+    ports: PORTS,
+    outputs: OUTPUTS,
+    build: |p| crate::registry::boxed(Friction::from_params(p)),
+};
 
 #[cfg(test)]
 mod tests {

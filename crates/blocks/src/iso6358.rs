@@ -57,7 +57,42 @@
 //!   the flow continuous if a solver overshoots below zero. No function here
 //!   returns NaN for such inputs.
 
+use crate::params::{ParamSpec, Params, Range};
 use thiserror::Error;
+use units::dim;
+
+/// Parameters every ISO 6358 path shares besides C and b: subsonic index,
+/// laminar ratio and reference conditions (declared once, used by every
+/// restriction and valve; blocks with several paths name C and b per path).
+pub const SHARED: &[ParamSpec] = &[
+    ParamSpec::quantity("m", dim::DIMENSIONLESS, Some(0.5), Range::Closed(0.1, 1.0), "", "subsonic index m (ISO 6358-1:2013)"),
+    ParamSpec::quantity("b_lam", dim::DIMENSIONLESS, Some(0.999), Range::OpenUnit, "", "laminar pressure ratio"),
+    ParamSpec::quantity("T_ref", dim::TEMPERATURE, Some(293.15), Range::GasTemperature, "K", "reference temperature (ANR)"),
+    ParamSpec::quantity("rho_ref", dim::DENSITY, Some(1.185), Range::Positive, "kg/m3", "reference density (ANR)"),
+];
+
+/// The ISO 6358 parameter set of one restriction: C, b and [`SHARED`].
+pub const PARAMS: &[ParamSpec] = crate::param_set!(
+    &[
+        ParamSpec::quantity("C", dim::CONDUCTANCE, None, Range::Positive, "L/min/bar", "sonic conductance C (ISO 6358)"),
+        ParamSpec::quantity("b", dim::DIMENSIONLESS, None, Range::OpenUnit, "", "critical pressure ratio b (ISO 6358)"),
+    ],
+    SHARED
+);
+
+/// The characteristic named by the parameters `c` and `b` (e.g. "C", "b"
+/// or "C_relief", "b_relief") with the [`SHARED`] ones.
+pub fn from_params(p: &Params, c: &str, b: &str) -> Result<FlowCharacteristic, crate::BlockError> {
+    with_shared(p, p.get(c), p.get(b))
+}
+
+/// The characteristic of sonic conductance `c` and critical ratio `b` with the [`SHARED`] parameters.
+pub fn with_shared(p: &Params, c: f64, b: f64) -> Result<FlowCharacteristic, crate::BlockError> {
+    Ok(FlowCharacteristic::new(c, b)?
+        .with_subsonic_index(p.get("m"))?
+        .with_laminar_ratio(p.get("b_lam"))?
+        .with_reference(p.get("T_ref"), p.get("rho_ref"))?)
+}
 
 /// ISO 6358 reference (ANR) temperature (K).
 pub const ANR_TEMPERATURE: f64 = 293.15;

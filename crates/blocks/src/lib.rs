@@ -10,22 +10,57 @@
 //! (shared/paper in the repository); "Eq. n" below refers to it.
 
 pub mod block;
-pub mod chamber;
-pub mod check_valve;
-pub mod conductance;
-pub mod cycler;
-pub mod delay;
-pub mod directional_valve;
-pub mod friction;
 pub mod iso6358;
-pub mod mass_flow_source;
 pub mod params;
-pub mod piston;
-pub mod pressure_source;
 pub mod registry;
-pub mod schedule;
-pub mod speed_control_valve;
-pub mod spring;
+pub mod support;
+
+/// Declares the block files and the list of every block type, one line per
+/// file: `module => [ITS_TYPE_ENTRIES]`.
+macro_rules! library {
+    ($($module:ident => [$($entry:ident),+]),* $(,)?) => {
+        $(pub mod $module;)*
+        /// Every block type, in catalogue order within each file.
+        pub static TYPES: &[registry::BlockType] = &[$($($module::$entry),+),*];
+    };
+}
+
+library! {
+    pressure_source => [TYPE, ATMOSPHERE],
+    mass_flow_source => [TYPE],
+    chamber => [TYPE],
+    tube => [TYPE],
+    conductance => [TYPE],
+    check_valve => [TYPE],
+    speed_control_valve => [TYPE],
+    directional_valve => [TYPE_5_2, TYPE_3_2, TYPE_2_2],
+    valve_5_3 => [TYPE],
+    pressure_regulator => [TYPE],
+    relief_valve => [TYPE],
+    quick_exhaust_valve => [TYPE],
+    shuttle_valve => [TYPE],
+    two_pressure_valve => [TYPE],
+    proportional_valve => [TYPE],
+    proportional_pressure_valve => [TYPE],
+    piston => [TYPE],
+    friction => [TYPE],
+    spring => [TYPE],
+    load => [TYPE],
+    cushion => [TYPE],
+    pressure_sensor => [TYPE],
+    temperature_sensor => [TYPE],
+    flow_sensor => [TYPE],
+    position_sensor => [TYPE],
+    velocity_sensor => [TYPE],
+    limit_switch => [TYPE],
+    schedule => [TYPE],
+    cycler => [TYPE],
+    delay => [TYPE],
+    sequencer => [TYPE],
+    timer => [TYPE],
+    logic_gate => [TYPE],
+    pid => [TYPE],
+}
 
 pub use block::Block;
 pub use params::{ParamError, ParamSpec, Params, RawValue};

@@ -10,7 +10,8 @@
 //!
 //! # Equations
 //! Delivered gas carries h(p_node, T); drawn gas carries the node's h
-//! (upstream enthalpy, as in Eq. 9/10).
+//! (upstream enthalpy, as in Eq. 9/10). The delivered mass is integrated and
+//! reported as free air consumption (ANR litres, ISO 8778), as for a supply.
 
 use crate::block::*;
 use crate::params::{ParamSpec, Params, Range};
@@ -41,6 +42,18 @@ impl Block for MassFlowSource {
     fn ports(&self) -> &[PortSpec] {
         PORTS
     }
+    fn gas_role(&self) -> GasRole {
+        GasRole::Boundary
+    }
+    fn quadratures(&self) -> &[OutputSpec] {
+        crate::pressure_source::DELIVERED
+    }
+    fn quadrature_rates(&self, _ctx: &Ctx, balances: &Balances, _derivs: &[f64], out: &mut [f64]) {
+        out[0] = -balances.pneumatic[0].mdot;
+    }
+    fn quadrature_statistics(&self, increments: &[f64]) -> Vec<(&'static str, Option<f64>)> {
+        crate::pressure_source::free_air(increments)
+    }
     fn flows(&self, ctx: &Ctx, out: &mut [PortFlow]) {
         let node = ctx.pneumatic[0];
         let h = if self.mdot >= 0.0 { ctx.gas.enthalpy(ctx.gas.density(node.p, self.t), self.t) } else { node.h };
@@ -48,6 +61,17 @@ impl Block for MassFlowSource {
         out[0] = PortFlow { mdot: -self.mdot, edot: -self.mdot * h };
     }
 }
+
+/// Registry entry of `mass_flow_source`.
+pub const TYPE: crate::registry::BlockType = crate::registry::BlockType {
+    name: "mass_flow_source",
+    family: crate::registry::Family::Sources,
+    doc: "prescribed mass flow into a node",
+    params: PARAMS,
+    ports: PORTS,
+    outputs: &[],
+    build: |p| crate::registry::boxed(MassFlowSource::from_params(p)),
+};
 
 #[cfg(test)]
 mod tests {

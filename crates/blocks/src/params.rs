@@ -42,6 +42,9 @@ pub enum ParamKind {
     Count,
     /// A list of quantities of this dimension (JSON array, or text "0, 2 s, 4 s").
     List(Dimension),
+    /// Free text, one or more lines (JSON array of strings, or one string):
+    /// the steps and transitions of a sequencer, the names of its ports.
+    Words,
 }
 
 /// Valid range of a quantity (SI), checked after unit conversion.
@@ -133,6 +136,53 @@ impl ParamSpec {
     pub const fn count(name: &'static str, default: Option<f64>, doc: &'static str) -> Self {
         Self { name, kind: ParamKind::Count, default, range: Range::NonNegative, display_unit: "", doc }
     }
+    /// Free text (one string or a list of strings); `required` makes it mandatory.
+    pub const fn words(name: &'static str, required: bool, doc: &'static str) -> Self {
+        Self { name, kind: ParamKind::Words, default: if required { None } else { Some(0.0) }, range: Range::Any, display_unit: "", doc }
+    }
+}
+
+/// Total number of parameters in a list of parameter sets (for [`param_set!`]).
+pub const fn total_len(parts: &[&[ParamSpec]]) -> usize {
+    let mut n = 0;
+    let mut i = 0;
+    while i < parts.len() {
+        n += parts[i].len();
+        i += 1;
+    }
+    n
+}
+
+/// The parameter sets one after the other (for [`param_set!`]); `N` must be their total length.
+pub const fn concat<const N: usize>(parts: &[&[ParamSpec]]) -> [ParamSpec; N] {
+    const BLANK: ParamSpec = ParamSpec::count("", None, "");
+    let mut out = [BLANK; N];
+    let (mut k, mut i) = (0, 0);
+    while i < parts.len() {
+        let mut j = 0;
+        while j < parts[i].len() {
+            out[k] = parts[i][j];
+            k += 1;
+            j += 1;
+        }
+        i += 1;
+    }
+    assert!(k == N, "concat: N is not the total length");
+    out
+}
+
+/// A block's parameter list made of shared sets and its own declarations,
+/// evaluated at compile time: `param_set!(iso6358::PARAMS, &[ParamSpec::quantity(...)])`.
+/// Shared sets (the ISO 6358 characteristic, the thermal wall) are declared
+/// once and reused this way.
+#[macro_export]
+macro_rules! param_set {
+    ($($part:expr),+ $(,)?) => {{
+        const PARTS: &[&[$crate::params::ParamSpec]] = &[$($part),+];
+        const N: usize = $crate::params::total_len(PARTS);
+        const OUT: [$crate::params::ParamSpec; N] = $crate::params::concat::<N>(PARTS);
+        &OUT
+    }};
 }
 
 /// Why a parameter could not be accepted. The component id is added by the caller.
@@ -157,6 +207,7 @@ pub enum ParamError {
 pub struct Params {
     values: BTreeMap<&'static str, f64>,
     lists: BTreeMap<&'static str, Vec<f64>>,
+    words: BTreeMap<&'static str, Vec<String>>,
     given: Vec<&'static str>,
 }
 
@@ -166,22 +217,36 @@ impl Params {
     pub fn from_raw<'a>(specs: &'static [ParamSpec], raw: impl IntoIterator<Item = (&'a str, &'a RawValue)>) -> Result<Params, ParamError> {
         let mut values = BTreeMap::new();
         let mut lists = BTreeMap::new();
+        let mut words = BTreeMap::new();
         let mut given = Vec::new();
         for (name, value) in raw {
             let spec = specs.iter().find(|s| s.name == name).ok_or_else(|| ParamError::Unknown {
                 name: name.to_string(),
                 accepted: specs.iter().map(|s| s.name).collect::<Vec<_>>().join(", "),
             })?;
-            if let ParamKind::List(_) = spec.kind {
-                lists.insert(spec.name, parse_list(spec, value)?);
-            } else {
-                values.insert(spec.name, parse_value(spec, value)?);
+            match spec.kind {
+                ParamKind::List(_) => {
+                    lists.insert(spec.name, parse_list(spec, value)?);
+                }
+                ParamKind::Words => {
+                    words.insert(spec.name, parse_words(spec, value)?);
+                }
+                _ => {
+                    values.insert(spec.name, parse_value(spec, value)?);
+                }
             }
             given.push(spec.name);
         }
         for spec in specs {
             if let ParamKind::List(_) = spec.kind {
                 lists.entry(spec.name).or_default();
+                continue;
+            }
+            if let ParamKind::Words = spec.kind {
+                if spec.default.is_none() && !words.contains_key(spec.name) {
+                    return Err(ParamError::Missing { name: spec.name.into(), doc: spec.doc.into() });
+                }
+                words.entry(spec.name).or_default();
                 continue;
             }
             if !values.contains_key(spec.name) {
@@ -193,7 +258,12 @@ impl Params {
                 }
             }
         }
-        Ok(Params { values, lists, given })
+        Ok(Params { values, lists, words, given })
+    }
+
+    /// Lines of a text parameter (empty if not given).
+    pub fn words(&self, name: &str) -> &[String] {
+        self.words.get(name).map(|v| v.as_slice()).unwrap_or(&[])
     }
 
     /// Values of a list parameter (empty if not given).
@@ -232,6 +302,16 @@ pub fn parse_list(spec: &ParamSpec, value: &RawValue) -> Result<Vec<f64>, ParamE
     items.iter().map(|item| parse_value(&scalar, item)).collect()
 }
 
+/// Lines of a text parameter: a JSON array of strings, or one string.
+pub fn parse_words(spec: &ParamSpec, value: &RawValue) -> Result<Vec<String>, ParamError> {
+    let bad = || ParamError::Invalid { name: spec.name.into(), reason: format!("expected text or a list of texts, got {value}") };
+    match value {
+        RawValue::Text(s) => Ok(vec![s.clone()]),
+        RawValue::List(items) => items.iter().map(|v| if let RawValue::Text(s) = v { Ok(s.clone()) } else { Err(bad()) }).collect(),
+        RawValue::Number(_) => Err(bad()),
+    }
+}
+
 /// Convert one raw value according to its spec.
 pub fn parse_value(spec: &ParamSpec, value: &RawValue) -> Result<f64, ParamError> {
     let shown = value.to_string();
@@ -241,6 +321,7 @@ pub fn parse_value(spec: &ParamSpec, value: &RawValue) -> Result<f64, ParamError
             return Err(ParamError::Invalid { name: spec.name.into(), reason: format!("expected a single value, got the list {shown}") })
         }
         (ParamKind::List(_), _) => return Err(ParamError::Invalid { name: spec.name.into(), reason: "is a list".into() }),
+        (ParamKind::Words, _) => return Err(ParamError::Invalid { name: spec.name.into(), reason: "is text, not a number".into() }),
         (ParamKind::Quantity(dim), RawValue::Text(s)) => {
             if spec.range == Range::PositiveOrInfinite && matches!(s.trim(), "inf" | "infinity" | "∞") {
                 f64::INFINITY

@@ -111,6 +111,9 @@ impl Block for Piston {
     fn ports(&self) -> &[PortSpec] {
         PORTS
     }
+    fn gas_role(&self) -> GasRole {
+        GasRole::None
+    }
     fn states(&self) -> &[StateSpec] {
         STATES
     }
@@ -167,6 +170,17 @@ impl Block for Piston {
         out[0] = Some(balances.mechanical[0].accel);
     }
 }
+
+/// Registry entry of `piston`.
+pub const TYPE: crate::registry::BlockType = crate::registry::BlockType {
+    name: "piston",
+    family: crate::registry::Family::Mechanics,
+    doc: "moving mass with end stops",
+    params: PARAMS,
+    ports: PORTS,
+    outputs: OUTPUTS,
+    build: |p| crate::registry::boxed(Piston::from_params(p)),
+};
 
 #[cfg(test)]
 mod tests {

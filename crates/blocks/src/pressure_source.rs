@@ -11,7 +11,10 @@
 //! # Equations
 //! The port state is (p, T, ρ(p, T), h(ρ, T)) from the circuit's gas model.
 //! Gas flowing out of the source carries that enthalpy; gas flowing in
-//! disappears (infinite capacity). The paper assumes constant supply and
+//! disappears (infinite capacity). A supply (`pressure_source`) integrates
+//! the mass it delivers: the run's summary reports it as free air
+//! consumption, V = m/ρ_ANR in ANR litres (ISO 8778 reference atmosphere,
+//! ρ_ANR = 1.185 kg/m³), per cycle and per minute. The paper assumes constant supply and
 //! ambient conditions (§2.1); a finite supply line is composed from a
 //! conductance and a chamber.
 
@@ -29,6 +32,17 @@ pub const ATMOSPHERE_PARAMS: &[ParamSpec] = &[
     ParamSpec::quantity("T", dim::TEMPERATURE, Some(293.15), Range::GasTemperature, "K", "ambient temperature"),
 ];
 pub const PORTS: &[PortSpec] = &[PortSpec::new("port", PortKind::PneumaticEffort, "gas at the source state")];
+
+/// The quadrature of a supply: the mass it delivered.
+pub const DELIVERED: &[OutputSpec] = &[OutputSpec { name: "delivered", unit: "kg" }];
+
+/// Free air [m³ ANR] of a delivered mass: V = m/ρ_ANR with the ISO 8778
+/// standard reference atmosphere (20 °C, 100 kPa, 65 % relative humidity,
+/// ρ = 1.185 kg/m³, the ANR reference of ISO 6358) — the volume compressors
+/// are sized in.
+pub fn free_air(increments: &[f64]) -> Vec<(&'static str, Option<f64>)> {
+    vec![("free_air", increments.first().map(|m| m / crate::iso6358::ANR_DENSITY))]
+}
 
 #[derive(Debug, Clone, PartialEq)]
 pub struct PressureSource {
@@ -50,13 +64,53 @@ impl Block for PressureSource {
     fn ports(&self) -> &[PortSpec] {
         PORTS
     }
+    fn gas_role(&self) -> GasRole {
+        GasRole::Boundary
+    }
     fn effort(&self, ctx: &Ctx, out: &mut [GasState]) {
         out[0] = ctx.gas.state_pt(self.p, self.t);
     }
     fn facts(&self) -> Vec<(usize, Fact)> {
         vec![(0, if self.name == "atmosphere" { Fact::AmbientPressure(self.p) } else { Fact::SupplyPressure(self.p) })]
     }
+    /// A supply integrates the mass it delivers (for its air consumption); an atmosphere does not.
+    fn quadratures(&self) -> &[OutputSpec] {
+        if self.name == "atmosphere" {
+            &[]
+        } else {
+            DELIVERED
+        }
+    }
+    fn quadrature_rates(&self, _ctx: &Ctx, balances: &Balances, _derivs: &[f64], out: &mut [f64]) {
+        // the net flow the circuit draws from the node is what the source delivers
+        out[0] = -balances.pneumatic[0].mdot;
+    }
+    fn quadrature_statistics(&self, increments: &[f64]) -> Vec<(&'static str, Option<f64>)> {
+        free_air(increments)
+    }
 }
+
+/// Registry entry of `pressure_source`.
+pub const TYPE: crate::registry::BlockType = crate::registry::BlockType {
+    name: "pressure_source",
+    family: crate::registry::Family::Sources,
+    doc: "reservoir at fixed p and T (supply); reports the free air it delivers",
+    params: PARAMS,
+    ports: PORTS,
+    outputs: &[],
+    build: |p| crate::registry::boxed(PressureSource::from_params(p, "pressure_source")),
+};
+
+/// Registry entry of `atmosphere`.
+pub const ATMOSPHERE: crate::registry::BlockType = crate::registry::BlockType {
+    name: "atmosphere",
+    family: crate::registry::Family::Sources,
+    doc: "ambient reservoir (exhaust)",
+    params: ATMOSPHERE_PARAMS,
+    ports: PORTS,
+    outputs: &[],
+    build: |p| crate::registry::boxed(PressureSource::from_params(p, "atmosphere")),
+};
 
 #[cfg(test)]
 mod tests {

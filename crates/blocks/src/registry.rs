@@ -1,163 +1,84 @@
-//! Registry: every block type by its netlist name, with its parameter
-//! declarations and a constructor. Adding a block type = one file plus one
-//! entry here.
+//! Registry: every block type by its netlist name, with its family,
+//! parameter declarations, ports and a constructor. Each block file declares
+//! its entry (`pub const TYPE: BlockType`); the list of all of them is the
+//! [`crate::library!`] invocation in `lib.rs`. Adding a block type = one file
+//! plus one line there.
 
 use crate::block::{Block, OutputSpec, PortSpec};
 use crate::params::{ParamSpec, Params, RawValue};
 use crate::BlockError;
 
+/// Families of the catalogue (`pneumo blocks`, docs/blocks.md), in catalogue order.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash)]
+pub enum Family {
+    Sources,
+    Capacities,
+    Restrictions,
+    DirectionalValves,
+    PressureValves,
+    LogicValves,
+    ProportionalValves,
+    Mechanics,
+    Sensors,
+    Control,
+}
+
+impl Family {
+    /// Every family, in catalogue order.
+    pub const ALL: &'static [Family] = &[
+        Family::Sources,
+        Family::Capacities,
+        Family::Restrictions,
+        Family::DirectionalValves,
+        Family::PressureValves,
+        Family::LogicValves,
+        Family::ProportionalValves,
+        Family::Mechanics,
+        Family::Sensors,
+        Family::Control,
+    ];
+    /// Heading of the family in the catalogue.
+    pub fn title(self) -> &'static str {
+        match self {
+            Family::Sources => "Sources and exhaust",
+            Family::Capacities => "Capacities and lines",
+            Family::Restrictions => "Restrictions and flow controls",
+            Family::DirectionalValves => "Directional control valves",
+            Family::PressureValves => "Pressure control valves",
+            Family::LogicValves => "Logic and exhaust valves",
+            Family::ProportionalValves => "Proportional valves",
+            Family::Mechanics => "Actuators, loads and mechanics",
+            Family::Sensors => "Sensors and switches",
+            Family::Control => "Control",
+        }
+    }
+}
+
 /// A block type known to the netlist.
 pub struct BlockType {
     /// Name used in netlists (`"type": "chamber"`).
     pub name: &'static str,
+    /// Family in the catalogue.
+    pub family: Family,
     /// One line for listings and the schema.
     pub doc: &'static str,
     pub params: &'static [ParamSpec],
     /// Every port an instance may have (some appear only with certain
-    /// parameters, e.g. a chamber's `piston` port only with an area).
+    /// parameters, e.g. a chamber's `piston` port only with an area; a
+    /// sequencer's ports are named by its parameters and not listed).
     pub ports: &'static [PortSpec],
     /// Recorded outputs besides the signal outputs.
     pub outputs: &'static [OutputSpec],
     pub build: fn(&Params) -> Result<Box<dyn Block>, BlockError>,
 }
 
-fn boxed<B: Block + 'static>(r: Result<B, BlockError>) -> Result<Box<dyn Block>, BlockError> {
+/// A built block behind the trait object the registry hands out.
+pub fn boxed<B: Block + 'static>(r: Result<B, BlockError>) -> Result<Box<dyn Block>, BlockError> {
     r.map(|b| Box::new(b) as Box<dyn Block>)
 }
 
-use crate::*;
-
 /// All block types.
-pub static TYPES: &[BlockType] = &[
-    BlockType {
-        name: "chamber",
-        doc: "variable-volume pneumatic capacity (Eq. 5-17)",
-        params: chamber::PARAMS,
-        ports: chamber::PORTS_CYLINDER,
-        outputs: chamber::OUTPUTS,
-        build: |p| boxed(chamber::Chamber::from_params(p)),
-    },
-    BlockType {
-        name: "conductance",
-        doc: "ISO 6358 restriction (Eq. 33-35)",
-        params: conductance::PARAMS,
-        ports: conductance::PORTS,
-        outputs: conductance::OUTPUTS,
-        build: |p| boxed(conductance::Conductance::from_params(p)),
-    },
-    BlockType {
-        name: "check_valve",
-        doc: "one-way restriction with cracking pressure",
-        params: check_valve::PARAMS,
-        ports: check_valve::PORTS,
-        outputs: check_valve::OUTPUTS,
-        build: |p| boxed(check_valve::CheckValve::from_params(p)),
-    },
-    BlockType {
-        name: "speed_control_valve",
-        doc: "throttle in parallel with a check valve",
-        params: speed_control_valve::PARAMS,
-        ports: speed_control_valve::PORTS,
-        outputs: speed_control_valve::OUTPUTS,
-        build: |p| boxed(speed_control_valve::SpeedControlValve::from_params(p)),
-    },
-    BlockType {
-        name: "valve_5_2",
-        doc: "5/2 directional valve",
-        params: directional_valve::PARAMS_5_2,
-        ports: directional_valve::PORTS_5_2,
-        outputs: directional_valve::OUTPUTS,
-        build: |p| boxed(directional_valve::DirectionalValve::five_two(p)),
-    },
-    BlockType {
-        name: "valve_3_2",
-        doc: "3/2 directional valve",
-        params: directional_valve::PARAMS_3_2,
-        ports: directional_valve::PORTS_3_2,
-        outputs: directional_valve::OUTPUTS,
-        build: |p| boxed(directional_valve::DirectionalValve::three_two(p)),
-    },
-    BlockType {
-        name: "valve_2_2",
-        doc: "2/2 directional valve",
-        params: directional_valve::PARAMS_2_2,
-        ports: directional_valve::PORTS_2_2,
-        outputs: directional_valve::OUTPUTS,
-        build: |p| boxed(directional_valve::DirectionalValve::two_two(p)),
-    },
-    BlockType {
-        name: "pressure_source",
-        doc: "reservoir at fixed p and T (supply)",
-        params: pressure_source::PARAMS,
-        ports: pressure_source::PORTS,
-        outputs: &[],
-        build: |p| boxed(pressure_source::PressureSource::from_params(p, "pressure_source")),
-    },
-    BlockType {
-        name: "atmosphere",
-        doc: "ambient reservoir (exhaust)",
-        params: pressure_source::ATMOSPHERE_PARAMS,
-        ports: pressure_source::PORTS,
-        outputs: &[],
-        build: |p| boxed(pressure_source::PressureSource::from_params(p, "atmosphere")),
-    },
-    BlockType {
-        name: "mass_flow_source",
-        doc: "prescribed mass flow into a node",
-        params: mass_flow_source::PARAMS,
-        ports: mass_flow_source::PORTS,
-        outputs: &[],
-        build: |p| boxed(mass_flow_source::MassFlowSource::from_params(p)),
-    },
-    BlockType {
-        name: "piston",
-        doc: "moving mass with end stops",
-        params: piston::PARAMS,
-        ports: piston::PORTS,
-        outputs: piston::OUTPUTS,
-        build: |p| boxed(piston::Piston::from_params(p)),
-    },
-    BlockType {
-        name: "friction",
-        doc: "seal friction, Eq. 37, stick-slip (Karnopp 1985)",
-        params: friction::PARAMS,
-        ports: friction::PORTS,
-        outputs: friction::OUTPUTS,
-        build: |p| boxed(friction::Friction::from_params(p)),
-    },
-    BlockType {
-        name: "spring",
-        doc: "linear return spring",
-        params: spring::PARAMS,
-        ports: spring::PORTS,
-        outputs: spring::OUTPUTS,
-        build: |p| boxed(spring::Spring::from_params(p)),
-    },
-    BlockType {
-        name: "schedule",
-        doc: "time-table command signal",
-        params: schedule::PARAMS,
-        ports: schedule::PORTS,
-        outputs: &[],
-        build: |p| boxed(schedule::Schedule::from_params(p)),
-    },
-    BlockType {
-        name: "cycler",
-        doc: "limit-switch cycler (extend/retract for N cycles)",
-        params: cycler::PARAMS,
-        ports: cycler::PORTS,
-        outputs: &[],
-        build: |p| boxed(cycler::Cycler::from_params(p)),
-    },
-    BlockType {
-        name: "delay",
-        doc: "transport delay of a piecewise-constant signal",
-        params: delay::PARAMS,
-        ports: delay::PORTS,
-        outputs: &[],
-        build: |p| boxed(delay::Delay::from_params(p)),
-    },
-];
+pub use crate::TYPES;
 
 /// Look up a block type by name.
 pub fn block_type(name: &str) -> Result<&'static BlockType, BlockError> {
@@ -177,6 +98,14 @@ pub fn build<'a>(type_name: &str, raw: impl IntoIterator<Item = (&'a str, &'a Ra
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn every_type_builds_its_entry_name_and_declares_a_family_listed() {
+        for t in TYPES {
+            assert!(Family::ALL.contains(&t.family), "{}", t.name);
+            assert!(!t.doc.is_empty() && t.doc.len() < 100, "{}: doc is one short line", t.name);
+        }
+    }
 
     #[test]
     fn names_are_unique_and_parameter_names_unique_per_type() {

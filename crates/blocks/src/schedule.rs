@@ -62,6 +62,9 @@ impl Block for Schedule {
     fn ports(&self) -> &[PortSpec] {
         PORTS
     }
+    fn gas_role(&self) -> GasRole {
+        GasRole::None
+    }
     fn signal_outputs(&self, ctx: &Ctx, out: &mut [f64]) {
         out[0] = self.value(ctx.t);
     }
@@ -78,6 +81,17 @@ impl Block for Schedule {
         self.times.iter().copied().find(|&ti| ti > t)
     }
 }
+
+/// Registry entry of `schedule`.
+pub const TYPE: crate::registry::BlockType = crate::registry::BlockType {
+    name: "schedule",
+    family: crate::registry::Family::Control,
+    doc: "time-table command signal",
+    params: PARAMS,
+    ports: PORTS,
+    outputs: &[],
+    build: |p| crate::registry::boxed(Schedule::from_params(p)),
+};
 
 #[cfg(test)]
 mod tests {

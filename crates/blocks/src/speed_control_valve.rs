@@ -30,7 +30,8 @@ use crate::iso6358::FlowCharacteristic;
 use crate::params::{ParamSpec, Params, Range};
 use units::dim;
 
-pub const PARAMS: &[ParamSpec] = &[
+pub const PARAMS: &[ParamSpec] = crate::param_set!(
+    &[
     ParamSpec::quantity("C", dim::CONDUCTANCE, None, Range::Positive, "L/min/bar", "throttle sonic conductance"),
     ParamSpec::quantity("b", dim::DIMENSIONLESS, None, Range::OpenUnit, "", "throttle critical pressure ratio"),
     ParamSpec::quantity("check_C", dim::CONDUCTANCE, None, Range::Positive, "L/min/bar", "check valve sonic conductance"),
@@ -44,11 +45,9 @@ pub const PARAMS: &[ParamSpec] = &[
         "check valve opening pressure difference",
     ),
     ParamSpec::quantity("opening_range", dim::PRESSURE, Some(1000.0), Range::Positive, "bar", "check valve: pressure rise to fully open"),
-    ParamSpec::quantity("m", dim::DIMENSIONLESS, Some(0.5), Range::Closed(0.1, 1.0), "", "subsonic index"),
-    ParamSpec::quantity("b_lam", dim::DIMENSIONLESS, Some(0.999), Range::OpenUnit, "", "laminar pressure ratio"),
-    ParamSpec::quantity("T_ref", dim::TEMPERATURE, Some(293.15), Range::GasTemperature, "K", "reference temperature"),
-    ParamSpec::quantity("rho_ref", dim::DENSITY, Some(1.185), Range::Positive, "kg/m3", "reference density"),
-];
+    ],
+    crate::iso6358::SHARED
+);
 pub const PORTS: &[PortSpec] = &[
     PortSpec::new("a", PortKind::PneumaticFlow, "free-flow inlet (valve side in meter-out)"),
     PortSpec::new("b", PortKind::PneumaticFlow, "free-flow outlet (cylinder side in meter-out)"),
@@ -88,6 +87,9 @@ impl Block for SpeedControlValve {
     fn ports(&self) -> &[PortSpec] {
         PORTS
     }
+    fn gas_role(&self) -> GasRole {
+        GasRole::Restriction
+    }
     fn flows(&self, ctx: &Ctx, out: &mut [PortFlow]) {
         let (mut f, check) = self.paths(&ctx.pneumatic[0], &ctx.pneumatic[1]);
         f += check;
@@ -113,6 +115,17 @@ impl Block for SpeedControlValve {
         out[2] = Some(c.mdot);
     }
 }
+
+/// Registry entry of `speed_control_valve`.
+pub const TYPE: crate::registry::BlockType = crate::registry::BlockType {
+    name: "speed_control_valve",
+    family: crate::registry::Family::Restrictions,
+    doc: "throttle in parallel with a check valve",
+    params: PARAMS,
+    ports: PORTS,
+    outputs: OUTPUTS,
+    build: |p| crate::registry::boxed(SpeedControlValve::from_params(p)),
+};
 
 #[cfg(test)]
 mod tests {
@@ -140,9 +153,40 @@ mod tests {
 }
 
 #[cfg(test)]
-mod slope_tests {
-    use crate::block::{Ctx, PortFlow};
-    use gas::GasModel;
+pub(crate) mod slope_tests {
+    use crate::block::{Block, Ctx, PortFlow};
+    use gas::{GasModel, GasState};
+
+    /// Checks `port_flow` of a multi-port block against `flows` and a central
+    /// difference of `flows` in each port's pressure, at the given states,
+    /// signals and port gas states.
+    pub(crate) fn check_port_flow_slopes(b: &dyn Block, states: &[f64], signals: &[f64], nodes: &[GasState]) {
+        let gas = gas::IdealGas::air();
+        let n = nodes.len();
+        let flows_at = |st: &[GasState]| {
+            let ctx = Ctx { t: 0.0, gas: &gas, states, pneumatic: st, mechanical: &[], signals };
+            let mut o = vec![PortFlow::default(); n];
+            b.flows(&ctx, &mut o);
+            o
+        };
+        let out = flows_at(nodes);
+        for port in 0..n {
+            let ctx = Ctx { t: 0.0, gas: &gas, states, pneumatic: nodes, mechanical: &[], signals };
+            let (f, slope) = b.port_flow(&ctx, port).expect("the block gives its slope");
+            let tol = 1e-12 * out[port].mdot.abs().max(1e-12);
+            assert!((f.mdot - out[port].mdot).abs() <= tol, "{}: port {port} flow {} vs {}", b.type_name(), f.mdot, out[port].mdot);
+            let fd = |dp: f64| {
+                let mut st = nodes.to_vec();
+                let t = st[port].t;
+                st[port] = gas.state_pt(st[port].p + dp, t);
+                flows_at(&st)[port].mdot
+            };
+            let h = 1e-3;
+            let numeric = (fd(h) - fd(-h)) / (2.0 * h);
+            let scale = numeric.abs().max(slope.abs()).max(1e-15);
+            assert!((numeric - slope).abs() <= 1e-4 * scale, "{} port {port}: slope {slope} vs {numeric}", b.type_name());
+        }
+    }
 
     /// `port_flow` of every two-port restriction agrees with `flows` and with a
     /// central difference of `flows` in the port's pressure, on both sides of

@@ -47,6 +47,9 @@ impl Block for Spring {
     fn ports(&self) -> &[PortSpec] {
         PORTS
     }
+    fn gas_role(&self) -> GasRole {
+        GasRole::None
+    }
     fn forces(&self, ctx: &Ctx, out: &mut [PortForce]) {
         out[0] = PortForce { applied: self.force(ctx.mechanical[0].x), friction: None };
     }
@@ -57,6 +60,17 @@ impl Block for Spring {
         out[0] = Some(self.force(ctx.mechanical[0].x));
     }
 }
+
+/// Registry entry of `spring`.
+pub const TYPE: crate::registry::BlockType = crate::registry::BlockType {
+    name: "spring",
+    family: crate::registry::Family::Mechanics,
+    doc: "linear return spring",
+    params: PARAMS,
+    ports: PORTS,
+    outputs: OUTPUTS,
+    build: |p| crate::registry::boxed(Spring::from_params(p)),
+};
 
 #[cfg(test)]
 mod tests {

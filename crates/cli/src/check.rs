@@ -67,43 +67,55 @@ pub fn run(a: &CheckArgs) -> Result<(), CliError> {
     Ok(())
 }
 
-/// All block types with their ports, recorded outputs and parameters (for `pneumo blocks`).
+/// All block types by family, with their ports (domain, causal role, unit),
+/// recorded outputs and parameters (for `pneumo blocks`).
 pub fn block_listing() -> String {
     use blocks::block::{Domain, PortKind};
+    use blocks::registry::Family;
     let mut s = String::new();
-    for t in blocks::registry::TYPES {
-        let _ = writeln!(s, "{} — {}", t.name, t.doc);
-        let _ = writeln!(s, "  ports:");
-        for p in t.ports {
-            let role = match p.kind {
-                PortKind::PneumaticEffort => "pneumatic, imposes p and T",
-                PortKind::PneumaticFlow => "pneumatic, flow",
-                PortKind::MechanicalInertia => "mechanical, moving mass",
-                PortKind::MechanicalForce => "mechanical, force",
-                PortKind::SignalIn => "signal in",
-                PortKind::SignalOut => "signal out",
-            };
-            let unit = match p.kind.domain() {
-                Domain::Signal if p.unit.is_empty() => "[as its input]".to_string(),
-                Domain::Signal => format!("[{}]", p.unit),
-                Domain::Pneumatic => "[Pa, K; kg/s, W]".to_string(),
-                Domain::Mechanical => "[m, m/s; N]".to_string(),
-            };
-            let _ = writeln!(s, "    {:<20} {:<28} {:<18} {}", p.name, role, unit, p.doc);
+    for family in Family::ALL {
+        let members: Vec<_> = blocks::registry::TYPES.iter().filter(|t| t.family == *family).collect();
+        if members.is_empty() {
+            continue;
         }
-        if !t.outputs.is_empty() {
-            let outs: Vec<String> = t.outputs.iter().map(|o| format!("{} [{}]", o.name, o.unit)).collect();
-            let _ = writeln!(s, "  recorded: {}", outs.join(", "));
-        }
-        let _ = writeln!(s, "  parameters:");
-        for p in t.params {
-            let default = match (p.default, p.kind) {
-                (None, _) => "required".to_string(),
-                (Some(d), blocks::params::ParamKind::Choice(opts)) => opts.get(d as usize).copied().unwrap_or("").to_string(),
-                (Some(d), _) if d.is_infinite() => "inf".into(),
-                (Some(d), _) => display_default(d, p.display_unit),
-            };
-            let _ = writeln!(s, "    {:<20} {:<12} default {:<10} {}", p.name, p.display_unit, default, p.doc);
+        let _ = writeln!(s, "== {} ==\n", family.title());
+        for t in members {
+            let _ = writeln!(s, "{} — {}", t.name, t.doc);
+            let _ = writeln!(s, "  ports:");
+            for p in t.ports {
+                let role = match p.kind {
+                    PortKind::PneumaticEffort => "pneumatic, imposes p and T",
+                    PortKind::PneumaticFlow => "pneumatic, flow",
+                    PortKind::MechanicalInertia => "mechanical, moving mass",
+                    PortKind::MechanicalForce => "mechanical, force",
+                    PortKind::SignalIn => "signal in",
+                    PortKind::SignalOut => "signal out",
+                };
+                let unit = match p.kind.domain() {
+                    Domain::Signal if p.unit.is_empty() => "[as its input]".to_string(),
+                    Domain::Signal => format!("[{}]", p.unit),
+                    Domain::Pneumatic => "[Pa, K; kg/s, W]".to_string(),
+                    Domain::Mechanical => "[m, m/s; N]".to_string(),
+                };
+                let _ = writeln!(s, "    {:<20} {:<28} {:<18} {}", p.name, role, unit, p.doc);
+            }
+            if !t.outputs.is_empty() {
+                let outs: Vec<String> =
+                    t.outputs.iter().map(|o| format!("{} [{}]", o.name, if o.unit.is_empty() { "as input" } else { o.unit })).collect();
+                let _ = writeln!(s, "  recorded: {}", outs.join(", "));
+            }
+            let _ = writeln!(s, "  parameters:");
+            for p in t.params {
+                let default = match (p.default, p.kind) {
+                    (None, _) => "required".to_string(),
+                    (Some(_), blocks::params::ParamKind::Words | blocks::params::ParamKind::List(_)) => "-".to_string(),
+                    (Some(d), blocks::params::ParamKind::Choice(opts)) => opts.get(d as usize).copied().unwrap_or("").to_string(),
+                    (Some(d), _) if d.is_infinite() => "inf".into(),
+                    (Some(d), _) => display_default(d, p.display_unit),
+                };
+                let _ = writeln!(s, "    {:<20} {:<12} default {:<10} {}", p.name, p.display_unit, default, p.doc);
+            }
+            s.push('\n');
         }
     }
     s

@@ -295,10 +295,30 @@ pub fn print_warnings(warnings: &[graph::Warning]) {
 /// Summary JSON: cycles, signal ranges, balance residuals, solver statistics.
 pub fn summary(result: &SimResult, model_name: &str, columns: &[usize]) -> serde_json::Value {
     use serde_json::json;
+    // every cycle in the order completed, and the same listed per controller
+    let mut numbers: Vec<(String, usize)> = Vec::new();
+    let mut by_controller = serde_json::Map::new();
     let cycles: Vec<_> = result
         .cycles
         .iter()
-        .map(|c| json!({"start_s": c.start, "extend_s": c.extend, "retract_s": c.retract, "total_s": c.total}))
+        .map(|c| {
+            let k = match numbers.iter_mut().find(|(id, _)| *id == c.controller) {
+                Some((_, n)) => {
+                    *n += 1;
+                    *n
+                }
+                None => {
+                    numbers.push((c.controller.clone(), 1));
+                    1
+                }
+            };
+            let entry = json!({"controller": c.controller, "cycle": k, "start_s": c.start, "extend_s": finite(c.extend),
+                               "retract_s": finite(c.retract), "total_s": c.total});
+            if let Some(list) = by_controller.entry(c.controller.clone()).or_insert_with(|| json!([])).as_array_mut() {
+                list.push(entry.clone());
+            }
+            entry
+        })
         .collect();
     let mut signals = serde_json::Map::new();
     for &c in columns {
@@ -323,10 +343,20 @@ pub fn summary(result: &SimResult, model_name: &str, columns: &[usize]) -> serde
         .collect();
     let pressures: serde_json::Map<String, serde_json::Value> =
         result.final_state.pressures.iter().map(|(id, p)| (format!("{id}.p"), json!(p))).collect();
-    // "n_mean" of every chamber, per stroke, one value per cycle
+    // "n_mean" of every chamber, per stroke, one value per cycle (of each
+    // controller, nested by controller id when there are several)
+    let several = result.cycle_controllers.len() > 1;
     let mut polytropic = serde_json::Map::new();
     for st in result.stroke_statistics.iter().filter(|s| s.name == "n_mean") {
-        let entry = polytropic.entry(st.id.clone()).or_insert_with(|| json!({"extend": [], "retract": []}));
+        let map = if several {
+            match polytropic.entry(st.controller.clone()).or_insert_with(|| json!({})).as_object_mut() {
+                Some(m) => m,
+                None => continue,
+            }
+        } else {
+            &mut polytropic
+        };
+        let entry = map.entry(st.id.clone()).or_insert_with(|| json!({"extend": [], "retract": []}));
         if let Some(list) = entry[st.stroke].as_array_mut() {
             list.push(json!(st.value));
         }
@@ -335,6 +365,8 @@ pub fn summary(result: &SimResult, model_name: &str, columns: &[usize]) -> serde
         "model": model_name,
         "t_final_s": result.t_final,
         "cycles": cycles,
+        "cycles_by_controller": by_controller,
+        "air_consumption": air_consumption(result),
         "mean_polytropic_index": polytropic,
         "initial_rest_state": rest,
         "final_state": {"masses": masses, "pressures_Pa": pressures},
@@ -351,6 +383,58 @@ pub fn summary(result: &SimResult, model_name: &str, columns: &[usize]) -> serde
             "linear_algebra": result.linear_algebra, "evaluations_per_jacobian": result.evaluations_per_jacobian,
             "events": result.events.len(), "samples": result.times.len()
         }
+    })
+}
+
+/// A number for JSON, or null where it is undefined (a sequencer's strokes).
+fn finite(x: f64) -> serde_json::Value {
+    if x.is_finite() {
+        serde_json::json!(x)
+    } else {
+        serde_json::Value::Null
+    }
+}
+
+/// Free air delivered by each supply [ANR L], over the run and per cycle of
+/// each controller, with the mean flow [ANR L/min] (over the completed
+/// cycles if there are any, else over the run).
+pub fn air_consumption(result: &SimResult) -> serde_json::Value {
+    use serde_json::json;
+    let mut sources = serde_json::Map::new();
+    for st in result.run_statistics.iter().filter(|s| s.name == "free_air") {
+        let Some(total_m3) = st.value else { continue };
+        let mut per_cycle = serde_json::Map::new();
+        let mut per_cycle_rate = serde_json::Map::new();
+        let (mut cycle_l, mut cycle_s) = (0.0, 0.0);
+        for c in result.cycle_statistics.iter().filter(|c| c.name == "free_air" && c.id == st.id) {
+            let Some(v) = c.value else { continue };
+            let litres = v * 1e3;
+            let duration = result.cycles_of(&c.controller).nth(c.cycle - 1).map_or(f64::NAN, |r| r.total);
+            if let Some(list) = per_cycle.entry(c.controller.clone()).or_insert_with(|| json!([])).as_array_mut() {
+                list.push(json!(litres));
+            }
+            if let Some(list) = per_cycle_rate.entry(c.controller.clone()).or_insert_with(|| json!([])).as_array_mut() {
+                list.push(finite(litres / duration * 60.0));
+            }
+            if Some(&c.controller) == result.cycle_controllers.first() {
+                cycle_l += litres;
+                cycle_s += duration;
+            }
+        }
+        let mean = if cycle_s > 0.0 { cycle_l / cycle_s * 60.0 } else { total_m3 * 1e3 / result.t_final * 60.0 };
+        sources.insert(
+            st.id.clone(),
+            json!({
+                "free_air_L": total_m3 * 1e3,
+                "mean_L_per_min": finite(mean),
+                "per_cycle_L": per_cycle,
+                "per_cycle_L_per_min": per_cycle_rate
+            }),
+        );
+    }
+    json!({
+        "reference": "free air (ANR) at the ISO 8778 standard reference atmosphere: 20 degC, 100 kPa, 65 % RH, 1.185 kg/m3",
+        "sources": sources
     })
 }
 

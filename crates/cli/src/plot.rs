@@ -251,30 +251,37 @@ fn quantity_of_unit(si: &str) -> Quantity {
         "kg" => Quantity::new("mass", "mass", si, "kg"),
         "m3" => Quantity::new("volume", "volume", si, "cm3"),
         "kg/m3" => Quantity::new("density", "density", si, "kg/m3"),
+        "m3/s" => Quantity::new("volume flow", "volume flow", si, "L/min"),
         "" | "1" => Quantity::new("dimensionless", "dimensionless", si, "-"),
         other => Quantity::new(other, "value", other, other),
     }
 }
 
 /// SI unit of a result column from its signal name, for CSV files whose
-/// header carries no units (written without `--header-units`).
+/// header carries no units (written without `--header-units`): the unit the
+/// block contract declares for a signal output or recorded output of that
+/// name, when every block type that has one agrees on it (the registry is
+/// the only unit table). Per-segment pressures of a tube ("p1", "p12")
+/// are pressures.
 fn unit_of_signal(column: &str) -> &'static str {
     let signal = column.rsplit('.').next().unwrap_or(column);
-    match signal {
-        "p" | "p0" | "p1" | "p2" => "Pa",
-        "T" | "T0" => "K",
-        "x" => "m",
-        "v" => "m/s",
-        "a" => "m/s2",
-        "rho" => "kg/m3",
-        "m" => "kg",
-        "V" => "m3",
-        "n" | "n_est" | "spool" | "command" => "1",
-        s if s.starts_with("mdot") => "kg/s",
-        s if s.starts_with("F") => "N",
-        s if s.starts_with("Q") => "W",
-        _ => "",
+    let mut found: Option<&'static str> = None;
+    for t in blocks::registry::TYPES {
+        let ports = t.ports.iter().filter(|p| p.kind == blocks::block::PortKind::SignalOut).map(|p| (p.name, p.unit));
+        for (name, unit) in ports.chain(t.outputs.iter().map(|o| (o.name, o.unit))) {
+            if name == signal && !unit.is_empty() {
+                match found {
+                    None => found = Some(unit),
+                    Some(u) if u != unit => return "",
+                    Some(_) => {}
+                }
+            }
+        }
     }
+    if found.is_none() && signal.len() > 1 && signal.starts_with('p') && signal[1..].chars().all(|c| c.is_ascii_digit()) {
+        return "Pa";
+    }
+    found.unwrap_or("")
 }
 
 /// Order of panels: the paper's quantities first, the rest as they come.
@@ -902,6 +909,9 @@ mod tests {
             rest: Default::default(),
             final_state: Default::default(),
             stroke_statistics: Vec::new(),
+            cycle_statistics: Vec::new(),
+            run_statistics: Vec::new(),
+            cycle_controllers: Vec::new(),
             columns: vec!["head.p".into(), "rod.p".into(), "head.T".into(), "piston.x".into(), "head.n".into()],
             units: vec!["Pa".into(), "Pa".into(), "K".into(), "m".into(), "1".into()],
             times,

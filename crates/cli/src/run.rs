@@ -75,9 +75,9 @@ pub fn prepare(mut flat: FlatNetlist, spec: &RunSpec) -> Result<Prepared, CliErr
 pub fn execute(mut p: Prepared) -> Result<Run, CliError> {
     let result = solve::simulate(&mut p.model, &p.opts)?;
     let incomplete = match p.opts.cycles {
-        Some(n) if (result.cycles.len() as u64) < n => Some(format!(
+        Some(n) if result.completed_cycles() < n => Some(format!(
             "only {} of {n} cycles completed by t = {:.3} s: {}",
-            result.cycles.len(),
+            result.completed_cycles(),
             result.t_final,
             result.final_state.describe()
         )),

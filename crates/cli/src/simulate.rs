@@ -88,16 +88,39 @@ pub fn run(a: &SimulateArgs) -> Result<(), CliError> {
     }
     outputs.commit()?;
     let res = &r.result;
-    for (i, c) in res.cycles.iter().enumerate() {
-        println!("cycle {}: extend {:.4} s, retract {:.4} s, total {:.4} s", i + 1, c.extend, c.retract, c.total);
-        let n: Vec<String> = res
-            .stroke_statistics
-            .iter()
-            .filter(|s| s.cycle == i + 1 && s.name == "n_mean")
-            .map(|s| format!("{} {} {}", s.id, s.stroke, s.value.map_or("-".to_string(), |v| format!("{v:.3}"))))
-            .collect();
-        if !n.is_empty() {
-            println!("  mean polytropic index: {}", n.join(", "));
+    let several = res.cycle_controllers.len() > 1;
+    for controller in &res.cycle_controllers {
+        for (i, c) in res.cycles_of(controller).enumerate() {
+            let who = if several { format!("{controller} ") } else { String::new() };
+            if c.extend.is_finite() {
+                println!("{who}cycle {}: extend {:.4} s, retract {:.4} s, total {:.4} s", i + 1, c.extend, c.retract, c.total);
+            } else {
+                println!("{who}cycle {}: total {:.4} s", i + 1, c.total);
+            }
+            let n: Vec<String> = res
+                .stroke_statistics
+                .iter()
+                .filter(|s| &s.controller == controller && s.cycle == i + 1 && s.name == "n_mean")
+                .map(|s| format!("{} {} {}", s.id, s.stroke, s.value.map_or("-".to_string(), |v| format!("{v:.3}"))))
+                .collect();
+            if !n.is_empty() {
+                println!("  mean polytropic index: {}", n.join(", "));
+            }
+        }
+    }
+    let air = crate::output::air_consumption(res);
+    if let Some(sources) = air["sources"].as_object() {
+        for (id, s) in sources {
+            let per_cycle =
+                s["per_cycle_L"].as_object().and_then(|m| m.values().next()).and_then(|l| l.as_array()).cloned().unwrap_or_default();
+            let mean_cycle =
+                (!per_cycle.is_empty()).then(|| per_cycle.iter().filter_map(|v| v.as_f64()).sum::<f64>() / per_cycle.len() as f64);
+            println!(
+                "{id}: free air {:.3} L ANR{}, {:.2} L/min ANR (ISO 8778)",
+                s["free_air_L"].as_f64().unwrap_or(f64::NAN),
+                mean_cycle.map_or(String::new(), |v| format!(" ({v:.3} L per cycle)")),
+                s["mean_L_per_min"].as_f64().unwrap_or(f64::NAN)
+            );
         }
     }
     println!(

@@ -310,6 +310,7 @@ fn si_value(target: &Target, text: &str) -> Result<Cell, String> {
             .map(|o| Cell::Text(o.to_string()))
             .ok_or_else(|| format!("\"{text}\": expected one of {}", options.join(", "))),
         ParamKind::List(_) => Err("a list parameter cannot be varied".into()),
+        ParamKind::Words => Err("a text parameter cannot be varied".into()),
     }
 }
 

@@ -47,3 +47,34 @@ fn every_path_in_the_codemap_exists() {
     assert!(checked > 30, "the codemap names only {checked} paths: did its format change?");
     assert!(missing.is_empty(), "ARCHITECTURE.md names paths that do not exist: {missing:?}");
 }
+
+/// `graph` and `solve` read only the block contract: their code (tests
+/// aside) never names a block type ("chamber", "valve_5_2", …) in a string,
+/// so adding a block never touches them.
+#[test]
+fn graph_and_solve_never_name_a_block_type() {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("../..");
+    let names: Vec<String> = blocks::registry::TYPES.iter().map(|t| format!("\"{}\"", t.name)).collect();
+    let mut found = Vec::new();
+    for krate in ["graph", "solve"] {
+        let dir = root.join("crates").join(krate).join("src");
+        for entry in std::fs::read_dir(&dir).expect("src readable") {
+            let path = entry.expect("entry").path();
+            if path.extension().and_then(|e| e.to_str()) != Some("rs") {
+                continue;
+            }
+            let text = std::fs::read_to_string(&path).expect("source readable");
+            // the code before the unit tests, without comments
+            let code = text.split("#[cfg(test)]").next().unwrap_or("");
+            for (i, line) in code.lines().enumerate() {
+                let line = line.split("//").next().unwrap_or("");
+                for n in &names {
+                    if line.contains(n.as_str()) {
+                        found.push(format!("{}:{}: {n}", path.display(), i + 1));
+                    }
+                }
+            }
+        }
+    }
+    assert!(found.is_empty(), "graph/solve name block types: {found:?}");
+}

@@ -12,6 +12,9 @@
 //! - single_acting_3_2: retracts under its spring (and does not without it).
 //! - double_acting_two_3_2: two 3/2 valves switch the same paths as one 5/2
 //!   valve, so the cycle times equal those of the 5/2 version.
+//! - mid_stop_5_3, sequence_ab, vertical_lift, hose_5m, quick_exhaust,
+//!   cushioning, position_control: the circuits of the block library, each
+//!   with what a pneumatics engineer expects of it (docs/circuits.md).
 //! - `pneumo conductance` end to end: a noisy synthetic discharge gives back C
 //!   and b; a bad CSV is reported with file and line.
 
@@ -348,5 +351,287 @@ fn meter_out_with_a_slow_spool_runs_and_cycles_slower() {
         // the mixing temperature as converged there left 4e-4 to 1e-3,
         // whatever the tolerance; an instant valve closes to about 1e-6)
         assert!(r.balance.energy_residual.abs() < 2e-5, "{travel}: energy residual {}", r.balance.energy_residual);
+    }
+}
+
+// ---------------------------------------------------------------- the block library's circuits
+
+/// Value of a series at the first sample at or after `t`.
+fn at(s: &[(f64, f64)], t: f64) -> f64 {
+    s.iter().find(|p| p.0 >= t - 1e-12).map(|p| p.1).unwrap_or_else(|| panic!("no sample at {t}"))
+}
+
+/// First time at or after `from` the series satisfies `pred`.
+fn first(s: &[(f64, f64)], from: f64, pred: impl Fn(f64) -> bool) -> f64 {
+    s.iter().find(|p| p.0 >= from && pred(p.1)).map(|p| p.0).unwrap_or_else(|| panic!("never after {from}"))
+}
+
+/// A netlist of models/ as JSON, edited, then flattened.
+fn edited(name: &str, edit: impl FnOnce(&mut serde_json::Value)) -> graph::FlatNetlist {
+    let text = std::fs::read_to_string(models().join(name)).expect("read");
+    let mut json: serde_json::Value = serde_json::from_str(&text).expect("json");
+    edit(&mut json);
+    let netlist = graph::expand::parse(&json.to_string(), name).expect("parse");
+    graph::expand::flatten(&Fs, &netlist, &models(), 0).expect("flatten")
+}
+
+#[test]
+fn mid_stop_5_3_closed_centre_holds_the_piston() {
+    let r = run("mid_stop_5_3.json", &[]);
+    let x = series(&r, "cyl.piston.x");
+    let v = series(&r, "cyl.piston.v");
+    let spool = series(&r, "valve.spool");
+    // released at 0.62 s: the spool is back at its closed centre, the piston stops in mid-stroke
+    assert!(at(&spool, 0.7).abs() < 1e-3, "spool {}", at(&spool, 0.7));
+    // after a few swings on the air springs it sticks (friction) for good
+    let t_stop = v.iter().filter(|p| p.0 > 0.62 && p.0 < 1.9).rev().find(|p| p.1 != 0.0).map(|p| p.0).expect("moving after release");
+    let x_stop = at(&x, t_stop + 0.01);
+    let x_hold = at(&x, 2.29);
+    eprintln!("mid_stop_5_3: stopped at {:.2} mm {:.3} s after the release, {:.3} mm at 2.29 s", x_stop * 1e3, t_stop - 0.62, x_hold * 1e3);
+    assert!(t_stop < 0.62 + 0.5, "stops within half a second");
+    assert!(x_stop > 0.05 && x_stop < 0.19, "mid-stroke: {x_stop}");
+    // both chambers hold trapped air above the atmosphere: air springs on both sides
+    assert!(at(&series(&r, "cyl.head.p"), 1.0) > 3e5 && at(&series(&r, "cyl.rod.p"), 1.0) > 3e5);
+    // held for 1.5 s with a leak-free spool: it moves only by the cooling of the
+    // trapped air to the wall temperature (well under a millimetre)
+    assert!((x_hold - x_stop).abs() < 1e-3, "drift {} mm", (x_hold - x_stop) * 1e3);
+    // then it retracts to the stop
+    assert!(x[x.len() - 1].1 < 1e-4);
+}
+
+#[test]
+fn sequence_ab_runs_a_plus_b_plus_a_minus_b_minus() {
+    let r = run("sequence_ab.json", &[]);
+    let (xa, xb) = (series(&r, "cyl_a.piston.x"), series(&r, "cyl_b.piston.x"));
+    assert_eq!(r.cycles_of("sequence").count(), 2);
+    for c in r.cycles_of("sequence") {
+        // within each cycle: A reaches its end, then B, then A returns, then B
+        let a_out = first(&xa, c.start, |x| x >= 0.099);
+        let b_out = first(&xb, a_out, |x| x >= 0.049);
+        let a_in = first(&xa, b_out, |x| x <= 0.001);
+        let b_in = first(&xb, a_in, |x| x <= 0.001);
+        eprintln!(
+            "sequence_ab cycle at {:.4} s: A+ {a_out:.4}, B+ {b_out:.4}, A- {a_in:.4}, B- {b_in:.4}, total {:.4} s",
+            c.start, c.total
+        );
+        assert!(b_in <= c.start + c.total + 1e-9);
+        // B does not move before A is out; A does not retract before B is out
+        assert!(at(&xb, a_out - 0.002) < 0.001, "B moved early");
+        assert!(at(&xa, b_out - 0.002) > 0.099, "A retracted early");
+        assert!(c.extend.is_nan(), "a sequencer has no strokes");
+    }
+    // the first cycle starts when the start button is pressed (0.1 s)
+    assert!((r.cycles[0].start - 0.1).abs() < 1e-9);
+}
+
+#[test]
+fn several_controllers_keep_their_cycles_apart() {
+    // sequence_ab with the sequencer replaced by one cycler per cylinder
+    let f = edited("sequence_ab.json", |j| {
+        let comps = j["components"].as_array_mut().expect("components");
+        comps.retain(|c| c["id"] != "sequence" && c["id"] != "start");
+        comps.push(
+            serde_json::json!({ "id": "cycler_a", "type": "cycler", "params": { "stroke": "= cyl_a.stroke", "switch_tolerance": "1 mm" } }),
+        );
+        comps.push(serde_json::json!({ "id": "cycler_b", "type": "cycler", "params": { "stroke": "= cyl_b.stroke", "switch_tolerance": "1 mm", "dwell_extended": "0.2 s" } }));
+        let conns = j["connections"].as_array_mut().expect("connections");
+        conns.retain(|c| !c.to_string().contains("sequence") && !c.to_string().contains("start."));
+        conns.push(serde_json::json!({ "from": "cyl_a.x", "to": "cycler_a.x" }));
+        conns.push(serde_json::json!({ "from": "cyl_b.x", "to": "cycler_b.x" }));
+        conns.push(serde_json::json!({ "from": "cycler_a.command", "to": "valve_a.command" }));
+        conns.push(serde_json::json!({ "from": "cycler_b.command", "to": "valve_b.command" }));
+        j["simulation"]["outputs"] = serde_json::json!([]);
+        j["simulation"]["cycles"] = serde_json::json!(3);
+    });
+    let r = run_flat(&f);
+    let (na, nb) = (r.cycles_of("cycler_a").count(), r.cycles_of("cycler_b").count());
+    eprintln!("two cyclers: {na} cycles of A, {nb} of B, run ends at {:.3} s", r.t_final);
+    // the run ends when both have done 3; the faster one has done more meanwhile
+    assert_eq!(r.completed_cycles(), 3);
+    assert!(na >= 3 && nb >= 3 && na > nb, "{na} {nb}");
+    assert!(r.cycles_of("cycler_b").all(|c| c.total > 0.2), "B's cycles include its dwell, A's do not");
+}
+
+#[test]
+fn vertical_lift_regulator_holds_its_set_pressure_within_its_droop() {
+    let r = run("vertical_lift.json", &[]);
+    let line = series(&r, "line.p");
+    let p_set = 5e5 + 101_325.0;
+    let (lo, hi) = line.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), p| (a.min(p.1), b.max(p.1)));
+    eprintln!("vertical_lift: line {:.4} .. {:.4} bar (set {:.4} bar, droop 0.3 bar)", lo / 1e5, hi / 1e5, p_set / 1e5);
+    assert!((line[0].1 - p_set).abs() < 1.0, "at rest the line stands at the set pressure");
+    assert!(lo > p_set - 0.3e5 && hi < p_set + 0.05e5, "{lo} {hi}");
+    // it lifts the 50 kg: every cycle completes, and the load rests at the bottom in between
+    for c in &r.cycles {
+        eprintln!("  lift {:.3} s, lower {:.3} s", c.extend, c.retract);
+        assert!(c.extend > 0.5 && c.extend < 3.0 && c.retract > 0.3);
+    }
+    assert!(series(&r, "cyl.piston.x")[0].1 == 0.0);
+    // the head pressure at the top holds the weight: p_head A_head > 490 N + p_rod A_rod
+    let c = &r.cycles[1];
+    let t_top = c.start + c.extend + 0.4;
+    let (head, rod) = (at(&series(&r, "cyl.head.p"), t_top), at(&series(&r, "cyl.rod.p"), t_top));
+    let (a_head, a_rod) = (std::f64::consts::PI / 4.0 * 0.05f64.powi(2), std::f64::consts::PI / 4.0 * (0.05f64.powi(2) - 0.02f64.powi(2)));
+    assert!(head * a_head - rod * a_rod - 101_325.0 * (a_head - a_rod) > 50.0 * 9.80665);
+    // a regulator set above the supply is refused before anything runs
+    let e = graph::build(&flat("vertical_lift.json", &["regulator.p_set=9 bar"])).unwrap_err().to_string();
+    assert!(e.contains("\"regulator\"") && e.contains("p_set") && e.contains("supply.p"), "{e}");
+}
+
+#[test]
+fn hose_5m_delays_and_damps_the_pressure_step() {
+    let long = run("hose_5m.json", &["simulation.cycles=1"]);
+    let mut f = flat("hose_5m.json", &["simulation.cycles=1", "hose.length=0.05 m", "hose.segments=2"]);
+    f.simulation.outputs.clear();
+    let short = run_flat(&f);
+    let step = |r: &SimResult| {
+        let valve = series(r, "valve_port.p");
+        let head = series(r, "cyl.head.p");
+        let t0 = first(&valve, 0.0, |p| p > 101_325.0 + 0.2e5);
+        let t1 = first(&head, 0.0, |p| p > 101_325.0 + 0.2e5);
+        let rate =
+            head.windows(2).filter(|w| w[1].0 < 0.3 && w[1].0 > w[0].0).map(|w| (w[1].1 - w[0].1) / (w[1].0 - w[0].0)).fold(0.0, f64::max);
+        (t1 - t0, rate, r.cycles[0].extend)
+    };
+    let ((d_long, rate_long, ext_long), (d_short, rate_short, ext_short)) = (step(&long), step(&short));
+    // wave travel time of 5 m at the speed of sound of air at 20 °C (343 m/s): 14.6 ms
+    let travel = 5.0 / (1.4f64 * 287.05 * 293.15).sqrt();
+    eprintln!(
+        "hose_5m: delay {:.1} ms (L/c = {:.1} ms), 5 cm: {:.1} ms; steepest rise {:.0} vs {:.0} bar/s; extend {:.4} vs {:.4} s",
+        d_long * 1e3,
+        travel * 1e3,
+        d_short * 1e3,
+        rate_long / 1e5,
+        rate_short / 1e5,
+        ext_long,
+        ext_short
+    );
+    assert!((d_long - travel).abs() < 0.25 * travel, "delay {d_long} vs L/c {travel}");
+    assert!(d_short < 0.2 * travel);
+    assert!(rate_long < 0.5 * rate_short, "damped");
+    assert!(ext_long > ext_short);
+    assert!(long.balance.mass_residual.abs() < 1e-6 && long.balance.energy_residual.abs() < 1e-4);
+}
+
+#[test]
+fn quick_exhaust_shortens_the_retract_stroke() {
+    let with = run("quick_exhaust.json", &[]);
+    let f = edited("quick_exhaust.json", |j| {
+        j["components"].as_array_mut().expect("components").retain(|c| c["id"] != "qev");
+        let conns = j["connections"].as_array_mut().expect("connections");
+        conns.retain(|c| !c.to_string().contains("qev."));
+        conns.push(serde_json::json!(["line.b", "cyl.head_port"]));
+        j["simulation"]["outputs"] = serde_json::json!([]);
+    });
+    let without = run_flat(&f);
+    for (a, b) in with.cycles.iter().zip(&without.cycles) {
+        eprintln!("quick_exhaust: retract {:.4} s with, {:.4} s without; extend {:.4} / {:.4} s", a.retract, b.retract, a.extend, b.extend);
+        assert!(a.retract < 0.5 * b.retract);
+        // extending, the valve passes the supply as before
+        assert!(rel(a.extend, b.extend) < 0.1);
+    }
+    // on retract the head air leaves through E, not back through P
+    let ex = series(&with, "qev.mdot_exhaust");
+    assert!(ex.iter().map(|p| p.1).fold(0.0, f64::max) > 0.0);
+}
+
+#[test]
+fn cushioning_brakes_the_load_before_the_end_cap() {
+    let speed_at_end = |r: &SimResult| {
+        let x = series(r, "cyl.piston.x");
+        let v = series(r, "cyl.piston.v");
+        let t = first(&x, 0.0, |x| x >= 0.1995);
+        at(&v, t - 5e-4)
+    };
+    let cushioned = run("cushioning.json", &["simulation.cycles=1"]);
+    let open = run("cushioning.json", &["simulation.cycles=1", "cushion.C_needle=100 L/min/bar"]);
+    let (vc, vo) = (speed_at_end(&cushioned), speed_at_end(&open));
+    let peak = series(&cushioned, "cyl.rod.p").iter().map(|p| p.1).fold(0.0, f64::max);
+    eprintln!("cushioning: arrives at {vc:.3} m/s cushioned, {vo:.3} m/s with the needle open; cushion peak {:.1} bar", peak / 1e5);
+    assert!(vo > 1.0 && vc < 0.2 * vo, "{vc} vs {vo}");
+    // the trapped air is compressed above the supply while it brakes the load
+    assert!(peak > 7.1e5 && peak < 30e5);
+    // the check valve lets the retract stroke start at once
+    assert!(rel(cushioned.cycles[0].retract, open.cycles[0].retract) < 0.2);
+}
+
+#[test]
+fn position_control_follows_the_setpoint_steps() {
+    let r = run("position_control.json", &[]);
+    let x = series(&r, "sensor.x");
+    let u = series(&r, "controller.u");
+    for (t_step, target, until) in [(0.2, 0.1, 1.5), (1.5, 0.05, 2.8), (2.8, 0.15, 4.0)] {
+        let window: Vec<&(f64, f64)> = x.iter().filter(|p| p.0 > t_step && p.0 < until).collect();
+        let settled =
+            window.iter().find(|p| window.iter().filter(|q| q.0 >= p.0).all(|q| (q.1 - target).abs() < 1e-3)).map(|p| p.0 - t_step);
+        let overshoot = window.iter().map(|p| (p.1 - target) * (target - at(&x, t_step)).signum()).fold(f64::NEG_INFINITY, f64::max);
+        eprintln!(
+            "position_control: step to {:.0} mm settles within 1 mm after {:?} s, overshoot {:.2} mm",
+            target * 1e3,
+            settled,
+            overshoot * 1e3
+        );
+        assert!(settled.is_some_and(|s| s < 0.6), "{settled:?}");
+        assert!(overshoot < 3e-3);
+    }
+    // the controller output respects its limits
+    assert!(u.iter().all(|p| p.1 >= -1.0 && p.1 <= 1.0));
+    assert!(u.iter().any(|p| p.1 == 1.0), "saturates on the large steps");
+}
+
+#[test]
+fn a_supply_reports_the_free_air_it_delivers() {
+    // a 1 L tank filled from 1 to 7 bar through a conductance: after the wall has
+    // taken the heat of compression, the supply has delivered exactly the mass added,
+    // V (ρ(7 bar) − ρ(1 bar)) at 20 °C, i.e. 6 L of free air at 100 kPa (ISO 8778)
+    let netlist = serde_json::json!({
+        "name": "fill",
+        "components": [
+            { "id": "supply", "type": "pressure_source", "params": { "p": "7 bar", "T": "293.15 K" } },
+            { "id": "orifice", "type": "conductance", "params": { "C": "20 L/min/bar", "b": 0.3 } },
+            { "id": "tank", "type": "chamber", "params": { "dead_volume": "1 L", "tau_thermal": "0.2 s", "T_wall": "293.15 K" },
+              "init": { "p0": "1 bar", "T0": "293.15 K" } }
+        ],
+        "connections": [["supply.port", "orifice.a"], ["orifice.b", "tank.port"]],
+        "simulation": { "t_end": "20 s" }
+    });
+    let parsed = graph::expand::parse(&netlist.to_string(), "fill.json").expect("parse");
+    let f = graph::expand::flatten(&Fs, &parsed, &models(), 0).expect("flatten");
+    let r = run_flat(&f);
+    let free_air = r.run_statistics.iter().find(|s| s.id == "supply" && s.name == "free_air").and_then(|s| s.value).expect("free air");
+    let expected = 1e-3 * (7e5 - 1e5) / (287.05 * 293.15) / 1.185;
+    eprintln!("free air delivered: {:.5} L ANR (closed form {:.5} L)", free_air * 1e3, expected * 1e3);
+    assert!(rel(free_air, expected) < 1e-5);
+    // and in the summary of a cycling circuit, per cycle of its controller
+    let r = run("meter_out.json", &[]);
+    let per_cycle: Vec<f64> =
+        r.cycle_statistics.iter().filter(|s| s.id == "supply" && s.name == "free_air").filter_map(|s| s.value).collect();
+    assert_eq!(per_cycle.len(), r.cycles.len());
+    assert!(per_cycle.iter().all(|&v| v > 1e-3 && v < 1e-2), "{per_cycle:?}");
+}
+
+#[test]
+fn bad_library_input_is_one_line_and_writes_nothing() {
+    let dir = Scratch::new("bad-input");
+    let (out, summary) = (dir.0.join("r.csv"), dir.0.join("s.json"));
+    for (model, set, needle) in [
+        ("vertical_lift.json", "regulator.p_set=9 bar", "parameter \"p_set\""),
+        ("hose_5m.json", "hose.segments=0", "parameter \"segments\""),
+        ("sequence_ab.json", "sequence.transitions=0 -> 1 : start & c1", "\"c1\" is not an input"),
+    ] {
+        let r = Command::new(env!("CARGO_BIN_EXE_pneumo"))
+            .arg("simulate")
+            .arg(models().join(model))
+            .args(["--set", set, "--out"])
+            .arg(&out)
+            .arg("--summary")
+            .arg(&summary)
+            .output()
+            .expect("run pneumo");
+        let err = String::from_utf8_lossy(&r.stderr);
+        assert_eq!(r.status.code(), Some(1), "{model}: {err}");
+        assert_eq!(err.trim_end().lines().count(), 1, "{model}: one line: {err}");
+        assert!(err.contains(needle), "{model}: {err}");
+        assert!(!out.exists() && !summary.exists(), "{model}: no output written");
     }
 }

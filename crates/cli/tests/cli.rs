@@ -303,16 +303,44 @@ fn schema_matches_committed_file() {
 }
 
 #[test]
+fn docs_blocks_md_holds_the_current_listing() {
+    let dir = Scratch::new("blocks-doc");
+    let listing = ok(&dir.0, &["blocks"]);
+    let doc = std::fs::read_to_string(repo().join("docs/blocks.md")).expect("docs/blocks.md");
+    let inner = doc
+        .split("<!-- pneumo blocks: begin -->")
+        .nth(1)
+        .and_then(|s| s.split("<!-- pneumo blocks: end -->").next())
+        .expect("docs/blocks.md has the listing markers");
+    let committed = inner.trim().trim_start_matches("```text").trim_end_matches("```").trim();
+    assert!(
+        committed == listing.trim(),
+        "docs/blocks.md is stale: replace the text between its `pneumo blocks` markers with the output of `pneumo blocks`"
+    );
+    // and every type has its paragraph in the catalogue above the listing
+    let catalogue = doc.split("<!-- pneumo blocks: begin -->").next().expect("catalogue");
+    for line in listing.lines().filter(|l| !l.starts_with(' ') && l.contains(" — ")) {
+        let name = line.split(" — ").next().expect("name");
+        assert!(catalogue.contains(&format!("**`{name}`**")), "docs/blocks.md does not describe {name}");
+    }
+}
+
+#[test]
 fn blocks_lists_every_type() {
     let dir = Scratch::new("blocks");
     let listing = ok(&dir.0, &["blocks"]);
-    let listed: Vec<&str> = listing.lines().filter(|l| !l.starts_with(' ')).filter_map(|l| l.split(" — ").next()).collect();
+    // types are listed by family under "== Family ==" headings
+    let mut listed: Vec<&str> =
+        listing.lines().filter(|l| !l.starts_with(' ') && l.contains(" — ")).filter_map(|l| l.split(" — ").next()).collect();
+    assert!(listing.contains("== Directional control valves ==") && listing.contains("== Sensors and switches =="), "families");
     // the registry's own list, as the error for an unknown type reports it
     let f = variant(&dir, "t.json", |v| component(v, "head")["type"] = "no_such_type".into());
     let out = pneumo(&dir.0, &["check", f.to_str().expect("utf8 path")]);
     let err = text(&out.stderr);
     let known = err.split("known: ").nth(1).and_then(|s| s.trim_end().strip_suffix(')')).expect("known type list");
-    let known: Vec<&str> = known.split(", ").collect();
+    let mut known: Vec<&str> = known.split(", ").collect();
+    listed.sort_unstable();
+    known.sort_unstable();
     assert_eq!(listed, known, "`pneumo blocks` and the registry disagree");
     // the types the architecture promises
     for t in [
@@ -331,6 +359,27 @@ fn blocks_lists_every_type() {
         "spring",
         "schedule",
         "cycler",
+        "tube",
+        "valve_5_3",
+        "pressure_regulator",
+        "relief_valve",
+        "quick_exhaust_valve",
+        "shuttle_valve",
+        "two_pressure_valve",
+        "proportional_valve",
+        "proportional_pressure_valve",
+        "load",
+        "cushion",
+        "pressure_sensor",
+        "temperature_sensor",
+        "flow_sensor",
+        "position_sensor",
+        "velocity_sensor",
+        "limit_switch",
+        "sequencer",
+        "timer",
+        "logic_gate",
+        "pid",
     ] {
         assert!(listed.contains(&t), "`pneumo blocks` lacks {t}");
     }

@@ -136,6 +136,7 @@ impl UnionFind {
 pub fn build(flat: &FlatNetlist) -> Result<Circuit, GraphError> {
     let (concrete, resolved) = crate::params::concrete(flat)?;
     let mut circuit = build_concrete(&concrete)?;
+    crate::consistency::errors(&circuit)?;
     circuit.warnings = resolved.warnings.clone();
     circuit.warnings.extend(crate::consistency::check(&circuit));
     circuit.resolved = resolved;

@@ -11,7 +11,7 @@
 //! signal input belongs to the node of the block that drives the input.
 
 use crate::circuit::{Circuit, PortRef};
-use crate::Warning;
+use crate::{GraphError, Warning};
 use blocks::block::{Domain, Fact};
 use std::collections::BTreeMap;
 
@@ -98,6 +98,7 @@ pub fn check(c: &Circuit) -> Vec<Warning> {
                     thresholds.push((r, released, actuated));
                     None
                 }
+                Fact::SetPressure(_) => None, // an error, see `errors`
             };
             if let Some((key, (x, name))) = entry {
                 match geometry.get(&key) {
@@ -146,4 +147,79 @@ pub fn check(c: &Circuit) -> Vec<Warning> {
         }
     }
     warnings
+}
+
+/// Input that cannot work: a regulator whose set pressure is not below the
+/// supply that reaches its supply port (through any pneumatic path, not
+/// through other regulators, which count as sources at their set pressure).
+pub fn errors(c: &Circuit) -> Result<(), GraphError> {
+    for (bi, inst) in c.instances.iter().enumerate() {
+        for (port, fact) in inst.block.facts() {
+            let Fact::SetPressure(p_set) = fact else { continue };
+            let Some(node) = inst.port_nodes.get(port).copied().flatten() else { continue };
+            let Some((p_supply, source)) = available_supply(c, node, bi) else { continue };
+            if p_set >= p_supply {
+                return Err(GraphError::Inconsistent {
+                    id: inst.id.clone(),
+                    param: "p_set".into(),
+                    message: format!(
+                        "set to {:.4} bar, not below the supply that reaches it ({source} = {:.4} bar); pressures are absolute",
+                        p_set / 1e5,
+                        p_supply / 1e5
+                    ),
+                });
+            }
+        }
+    }
+    Ok(())
+}
+
+/// Highest supply pressure reaching pneumatic node `start` without passing
+/// through block `skip`, with the name of the value that sets it.
+fn available_supply(c: &Circuit, start: usize, skip: usize) -> Option<(f64, String)> {
+    let mut seen = vec![false; c.pneumatic_nodes.len()];
+    let mut queue = std::collections::VecDeque::from([start]);
+    seen[start] = true;
+    let mut best: Option<(f64, String)> = None;
+    let mut offer = |p: f64, name: String| {
+        if best.as_ref().is_none_or(|(q, _)| p > *q) {
+            best = Some((p, name));
+        }
+    };
+    while let Some(n) = queue.pop_front() {
+        for r in &c.pneumatic_nodes[n].ports {
+            if r.block == skip {
+                continue;
+            }
+            let inst = &c.instances[r.block];
+            let facts = inst.block.facts();
+            let supply_here = facts.iter().find_map(|(k, f)| match f {
+                Fact::SupplyPressure(p) if *k == r.port => Some(*p),
+                _ => None,
+            });
+            if let Some(p) = supply_here {
+                offer(p, format!("{}.p", inst.id));
+                continue;
+            }
+            if let Some((k, p)) = facts.iter().find_map(|(k, f)| if let Fact::SetPressure(p) = f { Some((*k, *p)) } else { None }) {
+                // another regulator: a source at its set pressure if reached from its outlet side
+                if k != r.port {
+                    offer(p, format!("{}.p_set", inst.id));
+                }
+                continue;
+            }
+            for (pi, (spec, node)) in inst.block.ports().iter().zip(&inst.port_nodes).enumerate() {
+                if pi == r.port || spec.kind.domain() != Domain::Pneumatic {
+                    continue;
+                }
+                if let Some(m) = *node {
+                    if !seen[m] {
+                        seen[m] = true;
+                        queue.push_back(m);
+                    }
+                }
+            }
+        }
+    }
+    best
 }

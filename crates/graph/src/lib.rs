@@ -110,4 +110,6 @@ pub enum GraphError {
     TiedInertias { ports: String },
     #[error("signal loop through \"{id}\" with no state to break it")]
     SignalLoop { id: String },
+    #[error("component \"{id}\", parameter \"{param}\": {message}")]
+    Inconsistent { id: String, param: String, message: String },
 }

@@ -352,6 +352,10 @@ fn param_schema(p: &blocks::params::ParamSpec) -> serde_json::Value {
         ParamKind::List(_) => {
             json!({ "description": description, "anyOf": [{ "type": "array" }, { "type": "string" }, { "type": "number" }] })
         }
+        ParamKind::Words => {
+            let description = format!("{}{}", p.doc, if p.default.is_none() { " (required)" } else { "" });
+            json!({ "description": description, "anyOf": [{ "type": "array", "items": { "type": "string" } }, { "type": "string" }] })
+        }
         _ => json!({ "description": description, "anyOf": [{ "type": "number" }, { "type": "string" }] }),
     }
 }

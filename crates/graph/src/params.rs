@@ -184,10 +184,11 @@ fn slots(flat: &FlatNetlist, warnings: &mut Vec<Warning>) -> Result<Vec<Slot>, G
             let expected = match spec.kind {
                 ParamKind::Quantity(d) | ParamKind::List(d) => Some((d, spec.kind)),
                 ParamKind::Count => Some((dim::DIMENSIONLESS, spec.kind)),
-                ParamKind::Choice(_) => None,
+                ParamKind::Choice(_) | ParamKind::Words => None,
             };
             let source = match (written, spec.kind) {
                 (_, ParamKind::Choice(_)) => Source::NotNumeric("a choice"),
+                (_, ParamKind::Words) => Source::NotNumeric("text"),
                 (Some(v), ParamKind::List(_)) if expression_text(v).is_some() => {
                     return Err(param_error(&c.origin, &subject, "a list parameter cannot be an expression".into()))
                 }

@@ -132,7 +132,7 @@ fn unknown_component_type_is_named_with_its_id() {
     let mut n = tank_fill(json!({ "dead_volume": "1 L" }));
     n["components"][2]["type"] = json!("chamberr");
     let e = error_of(n);
-    assert_names(&e, &["\"tank\"", "\"chamberr\"", "chamber, conductance"]);
+    assert_names(&e, &["\"tank\"", "\"chamberr\"", "chamber, ", "conductance, "]);
 }
 
 #[test]

@@ -375,14 +375,18 @@ impl Structure {
                 put(balance, -d_in.mdot / dj);
                 put(balance + 1, -d_in.edot / dj);
             }
-            return;
+            if slot.quad.is_empty() {
+                return;
+            }
         }
         let block = &model.circuit.instances[b].block;
         let ctx = Ctx { t, gas: &*model.gas, states: &w.states, pneumatic: &w.gas, mechanical: &w.mech, signals: &w.sig };
         let balances = Balances { pneumatic: &w.bal, mechanical: &w.motion };
         w.out.clear();
         w.out.resize(slot.states.len(), 0.0);
-        block.derivatives(&ctx, &balances, &mut w.out);
+        if !slot.states.is_empty() {
+            block.derivatives(&ctx, &balances, &mut w.out);
+        }
         for (i, row) in slot.states.clone().enumerate() {
             put(row, (w.out[i] - dy_base[row]) / dj);
         }
@@ -393,6 +397,9 @@ impl Structure {
             for (i, row) in slot.quad.clone().enumerate() {
                 put(row, (w.qout[i] - dy_base[row]) / dj);
             }
+        }
+        if slot.states.is_empty() {
+            return; // a boundary exchanges no heat or work (its base was not taken)
         }
         let ex = block.exchange(&ctx, &balances);
         put(balance + 2, (ex.heat - ex_base[b].heat) / dj);

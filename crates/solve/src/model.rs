@@ -6,7 +6,8 @@
 //! chamber's mean polytropic index) in block order, then four quadrature
 //! states used only for the balance report:
 //! [∫ṁ_boundary, ∫Ė_boundary, ∫Q_wall, ∫p·V̇] (boundary = flows entering
-//! through sources). No derivative reads a quadrature. Root functions: the
+//! through blocks declared [`GasRole::Boundary`]; heat and work of blocks
+//! declared [`GasRole::Capacity`]). No derivative reads a quadrature. Root functions: the
 //! blocks' event functions in block order, then [`mechanics::N_ROOTS`] per
 //! mechanical node; every one of them is negative while nothing happens and
 //! the event is its becoming positive (a rising crossing,
@@ -45,6 +46,8 @@ pub(crate) struct Slot {
     pub outputs: Range<usize>,
     pub has_flow: bool,
     pub has_effort: bool,
+    /// What the block does with gas (its contract declaration, read once).
+    pub role: GasRole,
     // scratch
     pub gas: Vec<GasState>,
     pub gas_out: Vec<GasState>,
@@ -161,6 +164,7 @@ impl Model {
                 quad: 0..0,
                 has_flow: pneu_is_effort.iter().any(|e| !e),
                 has_effort: pneu_is_effort.iter().any(|e| *e),
+                role: inst.block.gas_role(),
                 gas: vec![blank; pneu_nodes.len()],
                 gas_out: vec![blank; pneu_nodes.len()],
                 flows: vec![PortFlow::default(); pneu_nodes.len()],
@@ -331,6 +335,18 @@ impl Model {
             let ctx = InitCtx { gas: &*gas, mechanical: &slot.mech };
             self.circuit.instances[bi].block.initial_states(&ctx, &mut y[slot.states.clone()]);
         }
+        // states that track an input start at the value of that input
+        if self.eval_detached(0.0, &y, None, None).is_ok() {
+            for bi in 0..self.slots.len() {
+                let range = self.slots[bi].states.clone();
+                if range.is_empty() {
+                    continue;
+                }
+                let mut own = y[range.clone()].to_vec();
+                self.circuit.instances[bi].block.initial_states_from_inputs(&self.ctx(bi, 0.0, &y), &mut own);
+                y[range].copy_from_slice(&own);
+            }
+        }
         y
     }
 
@@ -488,7 +504,7 @@ impl Model {
         }
         for (node, mn) in circuit.mechanical_nodes.iter().enumerate() {
             let r = mn.inertia;
-            let mass = circuit.instances[r.block].block.inertia();
+            let mass = node_mass(circuit, node);
             let accel = mechanics::acceleration(modes[node], &node_forces[node], node_mech[node].v, mass);
             if !accel.is_finite() {
                 return Err(ModelError::NonFinite { t, what: format!("acceleration of {}", circuit.instances[r.block].id) });
@@ -507,19 +523,25 @@ impl Model {
                 let bal = Balances { pneumatic: &slot.bal_flow, mechanical: &slot.motion };
                 if !slot.states.is_empty() {
                     block.derivatives(&ctx, &bal, &mut dstates[slot.states.clone()]);
-                    if !slot.quad.is_empty() {
-                        let out = &mut dquad[slot.quad.start - n_states..slot.quad.end - n_states];
-                        block.quadrature_rates(&ctx, &bal, &dstates[slot.states.clone()], out);
+                }
+                if !slot.quad.is_empty() {
+                    let out = &mut dquad[slot.quad.start - n_states..slot.quad.end - n_states];
+                    block.quadrature_rates(&ctx, &bal, &dstates[slot.states.clone()], out);
+                }
+                match slot.role {
+                    GasRole::Capacity => {
+                        let ex = block.exchange(&ctx, &bal);
+                        quad[2] += ex.heat;
+                        quad[3] += ex.work;
                     }
-                    let ex = block.exchange(&ctx, &bal);
-                    quad[2] += ex.heat;
-                    quad[3] += ex.work;
-                } else {
-                    // stateless blocks: what they pass into the circuit crosses its boundary
-                    for f in &slot.bal_flow {
-                        quad[0] -= f.mdot;
-                        quad[1] -= f.edot;
+                    // what a boundary passes into the circuit crosses its boundary
+                    GasRole::Boundary => {
+                        for f in &slot.bal_flow {
+                            quad[0] -= f.mdot;
+                            quad[1] -= f.edot;
+                        }
                     }
+                    GasRole::Restriction | GasRole::None => {}
                 }
             }
             dy[nq..].copy_from_slice(&quad);
@@ -541,7 +563,7 @@ impl Model {
             let base = slots.last().map(|s| s.events.end).unwrap_or(0);
             for (node, mn) in circuit.mechanical_nodes.iter().enumerate() {
                 let block = &circuit.instances[mn.inertia.block].block;
-                let body = mechanics::Body { mass: block.inertia(), stops: block.stops(), velocity_band: *velocity_band };
+                let body = mechanics::Body { mass: node_mass(circuit, node), stops: block.stops(), velocity_band: *velocity_band };
                 let m = node_mech[node];
                 let out = &mut g[base + node * mechanics::N_ROOTS..base + (node + 1) * mechanics::N_ROOTS];
                 mechanics::roots(modes[node], m.x, m.v, &node_forces[node], &body, out);
@@ -651,6 +673,21 @@ fn self_state_name(circuit: &Circuit, slots: &[Slot], i: usize) -> String {
         }
     }
     format!("balance quadrature {}", i)
+}
+
+/// Moving mass [kg] of mechanical node `node`: its inertia's mass plus the
+/// mass the other blocks on the node carry ([`Block::carried_mass`]).
+pub fn node_mass(c: &Circuit, node: usize) -> f64 {
+    let mn = &c.mechanical_nodes[node];
+    let mut mass = c.instances[mn.inertia.block].block.inertia();
+    let mut seen: Vec<usize> = vec![mn.inertia.block];
+    for r in &mn.ports {
+        if !seen.contains(&r.block) {
+            seen.push(r.block);
+            mass += c.instances[r.block].block.carried_mass();
+        }
+    }
+    mass
 }
 
 /// Copy node gas states into every block's pneumatic buffer.

@@ -46,6 +46,12 @@
 //!    that stop (a closed chamber acting as a gas spring), the rest position
 //!    lies between the stops and is not computed: an error asks for `x0`.
 //!
+//! A block that holds a port at a pressure at rest
+//! ([`blocks::Block::rest_pressure`], a regulator's outlet at its set
+//! pressure) is not probed: its port's node is fed from a source at that
+//! pressure instead (both ways if it relieves), and its other ports are not
+//! joined to it.
+//!
 //! Limits: the graph rule is exact for chambers open to one pressure level
 //! (every shipped model); flow equilibria are found to the integrator's
 //! tolerance (1e-10). A force equilibrium between the stops (a gas spring, a
@@ -54,7 +60,7 @@
 //! values.
 
 use crate::model::{Model, ModelError};
-use blocks::block::{Ctx, PortFlow};
+use blocks::block::{Ctx, GasRole, PortFlow};
 use gas::GasState;
 use graph::NodeCausality;
 
@@ -105,25 +111,64 @@ fn compute(model: &mut Model) -> Result<RestReport, RestError> {
     let mut report = RestReport::default();
     let y = model.initial_state();
     model.eval(0.0, &y, None, None)?;
-    let edges = open_paths(model, &y);
-    set_pressures(model, &edges, &mut report)?;
+    let (edges, held) = open_paths(model, &y);
+    set_pressures(model, &edges, &held, &mut report)?;
     set_positions(model, &mut report)?;
     Ok(report)
 }
 
+/// A node a block holds at a pressure at rest ([`blocks::Block::rest_pressure`]).
+struct Held {
+    block: usize,
+    node: usize,
+    state: GasState,
+    relieving: bool,
+}
+
 /// Directed edges between pneumatic nodes, with the probe flow [kg/s] as
-/// their width: gas can pass from `a` to `b` at rest.
-fn open_paths(model: &Model, y: &[f64]) -> Vec<Vec<(usize, f64)>> {
+/// their width: gas can pass from `a` to `b` at rest; and the nodes blocks
+/// hold at a pressure (a regulator's outlet), which act as sources.
+fn open_paths(model: &Model, y: &[f64]) -> (Vec<Vec<(usize, f64)>>, Vec<Held>) {
+    let mut held = Vec::new();
     let gas = &*model.gas;
     let state = |p: f64| GasState { p, t: PROBE_T, rho: gas.density(p, PROBE_T), h: gas.enthalpy(gas.density(p, PROBE_T), PROBE_T) };
     let (high, low) = (state(PROBE_HIGH), state(PROBE_LOW));
     let mut edges: Vec<Vec<(usize, f64)>> = vec![Vec::new(); model.circuit.pneumatic_nodes.len()];
+    let add = |edges: &mut Vec<Vec<(usize, f64)>>, na: usize, nb: usize, passed: f64| match edges[na].iter_mut().find(|(m, _)| *m == nb) {
+        Some((_, w)) => *w = w.max(passed),
+        None => edges[na].push((nb, passed)),
+    };
     for (bi, slot) in model.slots.iter().enumerate() {
         let flow_ports: Vec<usize> = (0..slot.pneu_nodes.len()).filter(|&k| !slot.pneu_is_effort[k]).collect();
         if flow_ports.len() < 2 {
             continue;
         }
         let block = &model.circuit.instances[bi].block;
+        let ctx = Ctx { t: 0.0, gas, states: &y[slot.states.clone()], pneumatic: &slot.gas, mechanical: &slot.mech, signals: &slot.sig };
+        if let Some(r) = block.rest_pressure(&ctx) {
+            if let (Some(&node), Some(from)) = (slot.pneu_nodes.get(r.port), slot.gas.get(r.from)) {
+                held.push(Held {
+                    block: bi,
+                    node,
+                    state: GasState { p: r.pressure, ..gas.state_pt(r.pressure, from.t) },
+                    relieving: r.relieving,
+                });
+            }
+            continue;
+        }
+        if slot.role == GasRole::Capacity {
+            // a capacity between flow ports (a tube) is an open passage both ways;
+            // its probe flows would only tell its own initial content
+            for &a in &flow_ports {
+                for &b in &flow_ports {
+                    let (na, nb) = (slot.pneu_nodes[a], slot.pneu_nodes[b]);
+                    if na != nb {
+                        add(&mut edges, na, nb, f64::INFINITY);
+                    }
+                }
+            }
+            continue;
+        }
         let mut probe = vec![low; slot.pneu_nodes.len()];
         let mut out = vec![PortFlow::default(); slot.pneu_nodes.len()];
         for &a in &flow_ports {
@@ -143,15 +188,12 @@ fn open_paths(model: &Model, y: &[f64]) -> Vec<Vec<(usize, f64)>> {
                     if na == nb {
                         continue;
                     }
-                    match edges[na].iter_mut().find(|(m, _)| *m == nb) {
-                        Some((_, w)) => *w = w.max(passed),
-                        None => edges[na].push((nb, passed)),
-                    }
+                    add(&mut edges, na, nb, passed);
                 }
             }
         }
     }
-    edges
+    (edges, held)
 }
 
 /// Role of a pneumatic node at rest.
@@ -171,8 +213,11 @@ fn roles(model: &Model) -> Vec<Role> {
         .pneumatic_nodes
         .iter()
         .map(|n| match n.causality {
-            NodeCausality::Effort(r) if model.circuit.instances[r.block].block.states().is_empty() => Role::Source { block: r.block },
-            NodeCausality::Effort(r) => Role::Capacity { block: r.block },
+            NodeCausality::Effort(r) => match model.circuit.instances[r.block].block.gas_role() {
+                GasRole::Boundary => Role::Source { block: r.block },
+                GasRole::Capacity => Role::Capacity { block: r.block },
+                GasRole::Restriction | GasRole::None => Role::Passage,
+            },
             NodeCausality::Junction => Role::Passage,
         })
         .collect()
@@ -226,25 +271,46 @@ fn reversed(edges: &[Vec<(usize, f64)>]) -> Vec<Vec<(usize, f64)>> {
 /// level (a seal leak, a bleed) does not decide the rest pressure.
 pub const DOMINANCE: f64 = 100.0;
 
-fn set_pressures(model: &mut Model, edges: &[Vec<(usize, f64)>], report: &mut RestReport) -> Result<(), RestError> {
-    let roles = roles(model);
+/// The pressure level a node rests at, from the sources linked to it.
+struct Level {
+    /// State of the source(s) reached through the widest path.
+    best: GasState,
+    /// Mean temperature of the sources at that pressure.
+    t: f64,
+    /// Every path to another pressure level is at least [`DOMINANCE`] times narrower.
+    dominant: bool,
+    /// Gas can flow from that level to the node / from the node to it.
+    fills: bool,
+    drains: bool,
+    /// "open to supply", for the report.
+    reason: String,
+}
+
+fn set_pressures(model: &mut Model, edges: &[Vec<(usize, f64)>], held: &[Held], report: &mut RestReport) -> Result<(), RestError> {
+    // a held node is fed by a virtual source behind it (both ways if it relieves)
+    let mut roles = roles(model);
+    let mut edges = edges.to_vec();
+    let mut node_gas = model.node_gas.clone();
+    for h in held {
+        let v = edges.len();
+        edges.push(vec![(h.node, f64::INFINITY)]);
+        if h.relieving {
+            edges[h.node].push((v, f64::INFINITY));
+        }
+        roles.push(Role::Source { block: h.block });
+        node_gas.push(h.state);
+    }
+    let edges = edges.as_slice();
     let back = reversed(edges);
     let sources: Vec<(usize, usize)> =
         roles.iter().enumerate().filter_map(|(n, r)| if let Role::Source { block } = r { Some((n, *block)) } else { None }).collect();
     // fill[s][n]: widest path for gas from source s to n; drain[s][n]: from n to s
     let fill: Vec<Vec<f64>> = sources.iter().map(|&(n, _)| widest(n, edges, &roles)).collect();
     let drain: Vec<Vec<f64>> = sources.iter().map(|&(n, _)| widest(n, &back, &roles)).collect();
-    let node_gas = model.node_gas.clone();
-    let mut dividers = Vec::new();
-    for (node, role) in roles.iter().enumerate() {
-        let Role::Capacity { block } = *role else { continue };
-        let free = model.circuit.instances[block].block.free_initial();
-        if !free.pressure && !free.temperature {
-            continue;
-        }
-        let id = model.circuit.instances[block].id.clone();
-        let given = node_gas[node];
-        // (source block, its state, fill width, drain width) of every source linked to this chamber
+    let name = |b: usize| model.circuit.instances[b].id.clone();
+    // the level of a node; None if it reaches no source (a closed volume)
+    let level_at = |node: usize| -> Option<Level> {
+        // (source block, its state, fill width, drain width) of every source linked to this node
         let linked: Vec<(usize, GasState, f64, f64)> = sources
             .iter()
             .enumerate()
@@ -252,52 +318,93 @@ fn set_pressures(model: &mut Model, edges: &[Vec<(usize, f64)>], report: &mut Re
             .map(|(k, &(snode, sblock))| (sblock, node_gas[snode], fill[k][node], drain[k][node]))
             .collect();
         if linked.is_empty() {
-            continue; // a closed volume keeps its given value
+            return None;
         }
         // the pressure level reached through the widest path decides, unless another
         // level is reached through a path of comparable width (a flow divider)
         let width = |l: &(usize, GasState, f64, f64)| l.2.max(l.3);
-        let best = linked.iter().max_by(|a, b| width(a).total_cmp(&width(b))).map(|l| l.1).unwrap_or(given);
+        let best = linked.iter().max_by(|a, b| width(a).total_cmp(&width(b))).map(|l| l.1)?;
         let same_level = |s: &GasState| (s.p - best.p).abs() <= 1e-9 * best.p;
         let rival = linked.iter().filter(|l| !same_level(&l.1)).map(width).fold(0.0, f64::max);
         let level: Vec<&(usize, GasState, f64, f64)> = linked.iter().filter(|l| same_level(&l.1)).collect();
         let dominant = rival * DOMINANCE <= level.iter().map(|l| width(l)).fold(0.0, f64::max);
-        let names: Vec<String> = level.iter().map(|l| model.circuit.instances[l.0].id.clone()).collect();
+        let names: Vec<String> = level.iter().map(|l| name(l.0)).collect();
         let mut reason = format!("open to {}", names.join(" and "));
         if rival > 0.0 && dominant {
-            let others: Vec<String> =
-                linked.iter().filter(|l| !same_level(&l.1)).map(|l| model.circuit.instances[l.0].id.clone()).collect();
+            let others: Vec<String> = linked.iter().filter(|l| !same_level(&l.1)).map(|l| name(l.0)).collect();
             reason.push_str(&format!(" (a path over {DOMINANCE} times narrower to {} is neglected)", others.join(", ")));
         }
-        let t_level = level.iter().map(|l| l.1.t).sum::<f64>() / level.len() as f64;
+        Some(Level {
+            best,
+            t: level.iter().map(|l| l.1.t).sum::<f64>() / level.len() as f64,
+            dominant,
+            fills: level.iter().any(|l| l.2 > 0.0),
+            drains: level.iter().any(|l| l.3 > 0.0),
+            reason,
+        })
+    };
+    let mut dividers = Vec::new();
+    // what each free capacity takes: (block, pressure or None to keep it, temperature, reason)
+    let mut decided: Vec<(usize, Option<f64>, f64, String)> = Vec::new();
+    for (node, role) in roles.iter().enumerate().take(model.circuit.pneumatic_nodes.len()) {
+        let Role::Capacity { block } = *role else { continue };
+        let free = model.circuit.instances[block].block.free_initial();
+        if !free.pressure && !free.temperature {
+            continue;
+        }
+        let given = node_gas[node];
+        let Some(level) = level_at(node) else { continue }; // a closed volume keeps its given value
         if !free.pressure {
             // the pressure is given: only the temperature of the dominant level is taken
-            if dominant {
-                model.circuit.instances[block].block.set_initial_gas(given.p, t_level);
-                report.values.push(RestValue { id, param: "T0", value: t_level, reason });
+            if level.dominant {
+                decided.push((block, None, level.t, level.reason));
             }
             continue;
         }
-        if !dominant {
+        if !level.dominant {
             // gas flows through it between two pressure levels: a flow equilibrium
             dividers.push(block);
             continue;
         }
-        let fills = level.iter().any(|l| l.2 > 0.0);
-        let drains = level.iter().any(|l| l.3 > 0.0);
         // both ways: always; one way: only towards the source's level
-        let takes_source = match (fills, drains) {
+        let takes_source = match (level.fills, level.drains) {
             (true, true) => true,
-            (true, false) => given.p < best.p,
-            (false, true) => given.p > best.p,
+            (true, false) => given.p < level.best.p,
+            (false, true) => given.p > level.best.p,
             (false, false) => false,
         };
-        if !takes_source {
+        if takes_source {
+            decided.push((block, Some(level.best.p), if free.temperature { level.t } else { given.t }, level.reason));
+        }
+    }
+    // capacities between flow ports (a tube): open both ways, they rest at the
+    // level of the nodes at their ends, or in a flow equilibrium between them
+    for (bi, slot) in model.slots.iter().enumerate() {
+        if slot.role != GasRole::Capacity || slot.pneu_nodes.is_empty() || slot.pneu_is_effort.iter().any(|&e| e) {
             continue;
         }
-        let t = if free.temperature { t_level } else { given.t };
-        model.circuit.instances[block].block.set_initial_gas(best.p, t);
-        report.values.push(RestValue { id: id.clone(), param: "p0", value: best.p, reason: reason.clone() });
+        let free = model.circuit.instances[bi].block.free_initial();
+        if !free.pressure && !free.temperature {
+            continue;
+        }
+        let levels: Vec<Level> = slot.pneu_nodes.iter().filter_map(|&n| level_at(n)).collect();
+        let Some(first) = levels.first() else { continue };
+        let same = levels.iter().all(|l| l.dominant && (l.best.p - first.best.p).abs() <= 1e-9 * first.best.p);
+        if same {
+            decided.push((bi, free.pressure.then_some(first.best.p), first.t, first.reason.clone()));
+        } else if free.pressure {
+            dividers.push(bi);
+        }
+    }
+    for (block, p, t, reason) in decided {
+        let id = model.circuit.instances[block].id.clone();
+        let free = model.circuit.instances[block].block.free_initial();
+        let given = model.circuit.instances[block].block.initial_gas().unwrap_or((p.unwrap_or(0.0), t));
+        let t = if free.temperature { t } else { given.1 };
+        model.circuit.instances[block].block.set_initial_gas(p.unwrap_or(given.0), t);
+        if let Some(p) = p {
+            report.values.push(RestValue { id: id.clone(), param: "p0", value: p, reason: reason.clone() });
+        }
         if free.temperature {
             report.values.push(RestValue { id, param: "T0", value: t, reason });
         }
@@ -362,18 +469,19 @@ fn steady_flow(model: &mut Model, dividers: &[usize], report: &mut RestReport) -
         ..ode::Options::default()
     };
     let mut integrator = ode::Rosenbrock::new(opts, n);
-    let nodes: Vec<usize> = dividers
+    // the node each divider imposes its pressure on, or the nodes at the ends of a tube
+    let nodes: Vec<Vec<usize>> = dividers
         .iter()
         .map(|&b| {
-            model
-                .circuit
-                .pneumatic_nodes
-                .iter()
-                .position(|pn| matches!(pn.causality, NodeCausality::Effort(r) if r.block == b))
-                .unwrap_or(0)
+            let effort =
+                model.circuit.pneumatic_nodes.iter().position(|pn| matches!(pn.causality, NodeCausality::Effort(r) if r.block == b));
+            match effort {
+                Some(k) => vec![k],
+                None => model.slots[b].pneu_nodes.clone(),
+            }
         })
         .collect();
-    let pressures = |model: &Model| nodes.iter().map(|&k| model.node_gas[k].p).collect::<Vec<f64>>();
+    let pressures = |model: &Model| nodes.iter().flatten().map(|&k| model.node_gas[k].p).collect::<Vec<f64>>();
     let mut t = 0.0;
     let mut last = pressures(model);
     let mut t_stop = 1e-3;
@@ -385,7 +493,8 @@ fn steady_flow(model: &mut Model, dividers: &[usize], report: &mut RestReport) -
             .map_err(|e| RestError::Undetermined { id: sys.model.circuit.instances[dividers[0]].id.clone(), message: e.to_string() })?;
         model.eval(t, &y, None, None)?;
         let now = pressures(model);
-        let settled = now.iter().zip(&last).all(|(a, b)| (a - b).abs() <= 1e-12 * a.abs());
+        // unchanged to ten times the integrator's relative tolerance over a decade of time
+        let settled = now.iter().zip(&last).all(|(a, b)| (a - b).abs() <= 1e-9 * a.abs());
         last = now;
         if settled && t_stop >= 1.0 {
             converged = true;
@@ -399,8 +508,14 @@ fn steady_flow(model: &mut Model, dividers: &[usize], report: &mut RestReport) -
             message: format!("gas flowing through it between two pressure levels did not settle within {SETTLE_LIMIT} s; give its p0"),
         });
     }
-    for (&b, &k) in dividers.iter().zip(&nodes) {
-        let gas = model.node_gas[k];
+    for (&b, ks) in dividers.iter().zip(&nodes) {
+        // one node: its state; the ends of a tube: their mean (the tube starts uniform)
+        let n = ks.len().max(1) as f64;
+        let gas = GasState {
+            p: ks.iter().map(|&k| model.node_gas[k].p).sum::<f64>() / n,
+            t: ks.iter().map(|&k| model.node_gas[k].t).sum::<f64>() / n,
+            ..model.node_gas[ks[0]]
+        };
         let free = model.circuit.instances[b].block.free_initial();
         let id = model.circuit.instances[b].id.clone();
         let reason = format!("flow equilibrium between sources (settled after {t:.3e} s)");

@@ -207,7 +207,7 @@ fn final_state(model: &Model) -> FinalState {
         .iter()
         .enumerate()
         .filter_map(|(n, pn)| match pn.causality {
-            graph::NodeCausality::Effort(r) if !model.circuit.instances[r.block].block.states().is_empty() => {
+            graph::NodeCausality::Effort(r) if model.circuit.instances[r.block].block.gas_role() == blocks::block::GasRole::Capacity => {
                 Some((model.circuit.instances[r.block].id.clone(), model.node_gas[n].p))
             }
             _ => None,
@@ -244,14 +244,23 @@ pub struct SimResult {
     /// Statistics of blocks over each stroke of each completed cycle (the
     /// mean polytropic index of every chamber, say).
     pub stroke_statistics: Vec<StrokeStatistic>,
+    /// Statistics of blocks over each completed cycle of each controller (the
+    /// free air a supply delivered, say).
+    pub cycle_statistics: Vec<StrokeStatistic>,
+    /// Statistics of blocks over the whole run (`stroke` is "run", `cycle` 0).
+    pub run_statistics: Vec<StrokeStatistic>,
+    /// Ids of the controllers that count cycles ([`blocks::Block::counts_cycles`]).
+    pub cycle_controllers: Vec<String>,
 }
 
-/// A statistic of one block over one stroke.
+/// A statistic of one block over one stroke, one cycle or the whole run.
 #[derive(Debug, Clone, PartialEq)]
 pub struct StrokeStatistic {
-    /// Cycle number, from 1.
+    /// Id of the controller whose cycle it is ("" for the whole run).
+    pub controller: String,
+    /// Cycle number of that controller, from 1 (0 for the whole run).
     pub cycle: usize,
-    /// "extend" or "retract".
+    /// "extend", "retract", "cycle" or "run".
     pub stroke: &'static str,
     /// Block id ("head").
     pub id: String,
@@ -264,6 +273,15 @@ impl SimResult {
     /// Column index by name.
     pub fn column(&self, name: &str) -> Option<usize> {
         self.columns.iter().position(|c| c == name)
+    }
+    /// Cycles every cycle-counting controller has completed (the least of
+    /// their counts; 0 without such a controller).
+    pub fn completed_cycles(&self) -> u64 {
+        self.cycle_controllers.iter().map(|id| self.cycles.iter().filter(|c| &c.controller == id).count() as u64).min().unwrap_or(0)
+    }
+    /// The cycles of one controller, in order.
+    pub fn cycles_of<'a>(&'a self, controller: &'a str) -> impl Iterator<Item = &'a CycleRecord> + 'a {
+        self.cycles.iter().filter(move |c| c.controller == controller)
     }
     /// A whole column as (t, value) pairs, skipping undefined values.
     pub fn series(&self, name: &str) -> Option<Vec<(f64, f64)>> {
@@ -479,6 +497,9 @@ fn run(model: &mut Model, opts: &SimOptions, mut observer: Option<&mut dyn FnMut
         rest,
         final_state: FinalState::default(),
         stroke_statistics: Vec::new(),
+        cycle_statistics: Vec::new(),
+        run_statistics: Vec::new(),
+        cycle_controllers: model.circuit.instances.iter().filter(|i| i.block.counts_cycles()).map(|i| i.id.clone()).collect(),
     };
     // the blocks' quadratures at t = 0 and after every event, to difference over strokes
     let quad = model.n_states..model.n_states + model.n_block_quadratures;
@@ -603,7 +624,7 @@ fn run(model: &mut Model, opts: &SimOptions, mut observer: Option<&mut dyn FnMut
             }
         }
         if let Some(n) = opts.cycles {
-            if result.cycles.len() as u64 >= n {
+            if result.completed_cycles() >= n {
                 finished = true;
             }
         }
@@ -633,7 +654,13 @@ fn run(model: &mut Model, opts: &SimOptions, mut observer: Option<&mut dyn FnMut
         energy_residual: (last.energy - initial.energy - energy_in - heat_in + work_out) / energy_scale,
     };
     result.final_state = final_state(model);
+    snapshots.push((t, y[quad.clone()].to_vec()));
     result.stroke_statistics = stroke_statistics(model, &result.cycles, &snapshots);
+    result.cycle_statistics = cycle_statistics(model, &result.cycles, &snapshots);
+    result.run_statistics = interval_statistics(model, &snapshots[0].1, &snapshots[snapshots.len() - 1].1)
+        .into_iter()
+        .map(|(id, name, value)| StrokeStatistic { controller: String::new(), cycle: 0, stroke: "run", id, name, value })
+        .collect();
     result.t_final = t;
     result.stats = integrator.stats();
     result.linear_algebra = integrator.linear_algebra();
@@ -641,26 +668,74 @@ fn run(model: &mut Model, opts: &SimOptions, mut observer: Option<&mut dyn FnMut
     Ok(result)
 }
 
-/// Block statistics over the extend and retract strokes of every cycle, from
-/// the quadratures recorded at the events that bound them.
-fn stroke_statistics(model: &Model, cycles: &[CycleRecord], snapshots: &[(f64, Vec<f64>)]) -> Vec<StrokeStatistic> {
-    let at = |t: f64| snapshots.iter().find(|(ts, _)| (ts - t).abs() <= 1e-9 * t.abs().max(1.0)).map(|(_, v)| v.as_slice());
+/// The quadratures recorded at the instant `t` (an event), if any.
+fn snapshot_at(snapshots: &[(f64, Vec<f64>)], t: f64) -> Option<&[f64]> {
+    snapshots.iter().find(|(ts, _)| (ts - t).abs() <= 1e-9 * t.abs().max(1.0)).map(|(_, v)| v.as_slice())
+}
+
+/// Every block's statistics from the increments of its quadratures between two snapshots.
+fn interval_statistics(model: &Model, a: &[f64], b: &[f64]) -> Vec<(String, &'static str, Option<f64>)> {
     let mut out = Vec::new();
-    for (k, c) in cycles.iter().enumerate() {
+    let base = model.n_states;
+    for (bi, slot) in model.slots.iter().enumerate() {
+        if slot.quad.is_empty() {
+            continue;
+        }
+        let inc: Vec<f64> = slot.quad.clone().map(|i| b[i - base] - a[i - base]).collect();
+        let inst = &model.circuit.instances[bi];
+        for (name, value) in inst.block.quadrature_statistics(&inc) {
+            out.push((inst.id.clone(), name, value));
+        }
+    }
+    out
+}
+
+/// Number of each cycle within its controller's cycles, from 1.
+fn cycle_numbers(cycles: &[CycleRecord]) -> Vec<usize> {
+    let mut seen: Vec<(&str, usize)> = Vec::new();
+    cycles
+        .iter()
+        .map(|c| match seen.iter_mut().find(|(id, _)| *id == c.controller) {
+            Some((_, n)) => {
+                *n += 1;
+                *n
+            }
+            None => {
+                seen.push((&c.controller, 1));
+                1
+            }
+        })
+        .collect()
+}
+
+/// Block statistics over the extend and retract strokes of every cycle, from
+/// the quadratures recorded at the events that bound them (controllers
+/// without strokes have none).
+fn stroke_statistics(model: &Model, cycles: &[CycleRecord], snapshots: &[(f64, Vec<f64>)]) -> Vec<StrokeStatistic> {
+    let mut out = Vec::new();
+    for (c, k) in cycles.iter().zip(cycle_numbers(cycles)) {
         let strokes = [("extend", c.start, c.start + c.extend), ("retract", c.retract_start, c.retract_start + c.retract)];
         for (stroke, t0, t1) in strokes {
-            let (Some(a), Some(b)) = (at(t0), at(t1)) else { continue };
-            for (bi, slot) in model.slots.iter().enumerate() {
-                if slot.quad.is_empty() {
-                    continue;
-                }
-                let base = model.n_states;
-                let inc: Vec<f64> = slot.quad.clone().map(|i| b[i - base] - a[i - base]).collect();
-                let inst = &model.circuit.instances[bi];
-                for (name, value) in inst.block.quadrature_statistics(&inc) {
-                    out.push(StrokeStatistic { cycle: k + 1, stroke, id: inst.id.clone(), name, value });
-                }
+            if !(t0.is_finite() && t1.is_finite()) {
+                continue;
             }
+            let (Some(a), Some(b)) = (snapshot_at(snapshots, t0), snapshot_at(snapshots, t1)) else { continue };
+            for (id, name, value) in interval_statistics(model, a, b) {
+                out.push(StrokeStatistic { controller: c.controller.clone(), cycle: k, stroke, id, name, value });
+            }
+        }
+    }
+    out
+}
+
+/// Block statistics over every whole cycle (from its start to the start of
+/// the next, dwells included) of every controller.
+fn cycle_statistics(model: &Model, cycles: &[CycleRecord], snapshots: &[(f64, Vec<f64>)]) -> Vec<StrokeStatistic> {
+    let mut out = Vec::new();
+    for (c, k) in cycles.iter().zip(cycle_numbers(cycles)) {
+        let (Some(a), Some(b)) = (snapshot_at(snapshots, c.start), snapshot_at(snapshots, c.start + c.total)) else { continue };
+        for (id, name, value) in interval_statistics(model, a, b) {
+            out.push(StrokeStatistic { controller: c.controller.clone(), cycle: k, stroke: "cycle", id, name, value });
         }
     }
     out
@@ -751,7 +826,8 @@ fn handle_block_event(model: &mut Model, bi: usize, kind: EventKind, t: f64, y: 
     if let Some(note) = outcome.note {
         result.events.push(EventLog { t, what: format!("{}: {note}", inst.id) });
     }
-    if let Some(c) = outcome.cycle {
+    if let Some(mut c) = outcome.cycle {
+        c.controller = inst.id.clone();
         result.cycles.push(c);
     }
     Ok(())
@@ -774,7 +850,11 @@ fn settle(
         for node in 0..model.circuit.mechanical_nodes.len() {
             let r = model.circuit.mechanical_nodes[node].inertia;
             let block = &model.circuit.instances[r.block].block;
-            let body = mechanics::Body { mass: block.inertia(), stops: block.stops(), velocity_band: model.velocity_band };
+            let body = mechanics::Body {
+                mass: crate::model::node_mass(&model.circuit, node),
+                stops: block.stops(),
+                velocity_band: model.velocity_band,
+            };
             let m = model.node_mech[node];
             let f = model.node_forces[node];
             let fired_now = if pass == 0 { fired.get(node).copied().unwrap_or_default() } else { [false; mechanics::N_ROOTS] };

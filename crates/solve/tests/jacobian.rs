@@ -103,6 +103,38 @@ fn structured_jacobian_equals_plain_differences_on_the_meter_out_circuit() {
     assert!(total > 0);
 }
 
+/// Every shipped circuit (all block families of the library: pressure and
+/// proportional valves, tubes, sensors, controllers), at the states runs
+/// leave it in.
+#[test]
+fn structured_jacobian_equals_plain_differences_on_every_shipped_model() {
+    let mut names: Vec<String> = std::fs::read_dir(models_dir())
+        .unwrap()
+        .filter_map(|e| e.ok())
+        .map(|e| e.file_name().to_string_lossy().into_owned())
+        .filter(|n| n.ends_with(".json"))
+        .collect();
+    names.sort();
+    assert!(names.len() >= 5, "{names:?}");
+    for name in names {
+        // hose_5m: its lag-free pressure sensor on a junction reads the
+        // junction pressure of the previous evaluation (a known defect,
+        // docs/circuits.md), so its right-hand side is not a function of
+        // (t, y) alone and no difference quotient is exact
+        if name == "hose_5m.json" {
+            continue;
+        }
+        let flat = flat_from_model(&name, &[]);
+        let (model, _) = model_of(&flat);
+        if model.n_states == 0 || Structure::new(&model).is_none() {
+            continue;
+        }
+        for (k, (mut model, y)) in visited(&flat).into_iter().enumerate() {
+            compare(&mut model, &y, &format!("{name} state {k}"));
+        }
+    }
+}
+
 #[test]
 fn structured_jacobian_equals_plain_differences_on_four_drives() {
     let flat = drives(4, true);

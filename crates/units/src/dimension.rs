@@ -78,6 +78,8 @@ pub mod dim {
     pub const POWER: Dimension = d(1, 2, -3, 0);
     /// J = kg m² s^-2.
     pub const ENERGY: Dimension = d(1, 2, -2, 0);
+    /// Pa s (dynamic viscosity)
+    pub const VISCOSITY: Dimension = d(1, -1, -1, 0);
 }
 
 /// Name and example units of every named dimension, in one place.
@@ -106,6 +108,7 @@ const NAMED: &[(Dimension, &str, &[&str])] = {
         (SPECIFIC_HEAT, "specific heat", &["J/(kg K)", "kJ/(kg K)"]),
         (POWER, "power", &["W", "kW"]),
         (ENERGY, "energy", &["J", "kJ", "W h"]),
+        (VISCOSITY, "dynamic viscosity", &["Pa s", "µPa s", "mPa s"]),
     ]
 };
 

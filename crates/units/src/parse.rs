@@ -17,6 +17,7 @@
 //!
 //! Conversion factors (exact by definition unless noted): min = 60 s,
 //! h = 3600 s, bar = 1e5 Pa, atm = 101 325 Pa, L = 1e-3 m³,
+//! deg = π/180 (an angle is a pure number, rad = 1),
 //! psi = lbf/in² = 0.453 592 37 kg · 9.806 65 m/s² / (0.0254 m)²
 //! ≈ 6894.757 Pa (NIST SP 811, App. B), degC: T = t + 273.15 K,
 //! degF: T = (t + 459.67)·5/9 K.
@@ -51,6 +52,9 @@ const SYMBOLS: &[Symbol] = &[
     ("W", 1.0, 0, dim::POWER, true),
     ("L", 1.0, -3, dim::VOLUME, true),
     ("l", 1.0, -3, dim::VOLUME, true),
+    // plane angles are pure numbers in SI (rad = m/m); the degree is π/180 rad
+    ("rad", 1.0, 0, dim::DIMENSIONLESS, false),
+    ("deg", std::f64::consts::PI / 180.0, 0, dim::DIMENSIONLESS, false),
 ];
 
 /// SI prefixes (BIPM SI Brochure, Table 7), the subset useful here.
