@@ -119,7 +119,7 @@
 //! the subsonic phase.
 
 use crate::data::noise_sigma;
-use crate::diagnose::autocorrelation;
+use crate::stats::autocorrelation;
 use crate::lsq::{least_squares, Bounds, LsqError, LsqOptions};
 use blocks::iso6358::{ANR_DENSITY, ANR_TEMPERATURE};
 use gas::GasModel;
