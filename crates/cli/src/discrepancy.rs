@@ -26,9 +26,9 @@
 
 use crate::error::CliError;
 use crate::output::Transaction;
+use identify::candidates::{Candidate, Estimate};
 use identify::diagnose::Trace;
 use identify::phases::Phase;
-use identify::candidates::{Candidate, Estimate};
 use identify::report::{ModelSummary, Outcome};
 use plotters::prelude::{
     BitMapBackend, ChartBuilder, Color, FontStyle, IntoDrawingArea, IntoLogRange, LineSeries, PathElement, RGBColor, Rectangle,

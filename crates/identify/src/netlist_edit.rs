@@ -255,7 +255,10 @@ mod tests {
         // not written: the block default (switching_time 0, breakaway ratio 1)
         assert_eq!(param_si(&flat, "dcv", "switching_time").unwrap(), 0.0);
         assert_eq!(param_si(&flat, "friction", "breakaway_ratio").unwrap(), 1.0);
-        // init values are parameters too
+        // models/meter_out.json writes no initial state (the rest state
+        // before t = 0 sets it); init values written are read like parameters
+        let mut flat = flat;
+        set_param_si(&mut flat, "rod", "p0", 4e5).unwrap();
         assert!((param_si(&flat, "rod", "p0").unwrap() - 4e5).abs() < 1e-9);
         assert!(param_si(&flat, "head", "nonsense").unwrap_err().to_string().contains("accepted"));
         assert!(param_si(&flat, "nobody", "C").is_err());
@@ -266,6 +269,8 @@ mod tests {
         let mut flat = meter_out();
         set_param_si(&mut flat, "friction", "k0", 17.5).unwrap();
         assert_eq!(param_si(&flat, "friction", "k0").unwrap(), 17.5);
+        // an initial state written in `init` (the shipped model writes none)
+        component_mut(&mut flat, "rod").unwrap().init.insert("p0".into(), Value::Number(4e5));
         set_param_si(&mut flat, "rod", "p0", 7e5).unwrap();
         let rod = component(&flat, "rod").unwrap();
         assert!(rod.init.contains_key("p0") && !rod.params.contains_key("p0"));

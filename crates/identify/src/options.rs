@@ -54,7 +54,10 @@ impl Default for Thresholds {
 
 /// Where progress messages go (the library prints nothing itself).
 #[derive(Clone, Default)]
-pub struct Progress(Option<Arc<dyn Fn(&str) + Send + Sync>>);
+pub struct Progress(Option<Sink>);
+
+/// A progress message receiver.
+type Sink = Arc<dyn Fn(&str) + Send + Sync>;
 
 impl Progress {
     /// Messages to `f`.

@@ -18,7 +18,6 @@ use crate::experiment::Experiment;
 use crate::netlist_edit::{param_si, parse_for, split_target};
 use graph::FlatNetlist;
 
-
 /// What a fitted parameter acts on.
 #[derive(Debug, Clone, PartialEq)]
 pub enum Target {

@@ -337,7 +337,8 @@ mod tests {
         assert_eq!(r.len(), 201);
         // equal up to the integrator tolerance (rtol 1e-6 of 5 bar = 0.5 Pa = 1e-3 σ)
         assert!(r.iter().all(|x| x.abs() < 2e-3), "{:?}", r.iter().fold(0.0_f64, |m, x| m.max(x.abs())));
-        assert!((fits[0].offset + 1000.0).abs() < 1.0, "{fits:?}");
+        // the data read 1 kPa high: y = o + s with o = +1 kPa (crate::nuisance)
+        assert!((fits[0].offset - 1000.0).abs() < 1.0, "{fits:?}");
         let r2 = pr.residuals(&[30.0]).unwrap();
         assert!(r2.iter().any(|x| x.abs() > 1.0));
         assert_eq!(pr.layout(), vec![(0, 0..201)]);
@@ -351,15 +352,24 @@ mod tests {
     fn blocks_follow_experiments_and_channels_and_skip_missing_samples() {
         let flat = meter_out();
         let mut e = probe(vec![Some(1e5); 9]);
-        e.channels.push(Channel { signal: "piston.x".into(), values: vec![Some(0.0), None, Some(0.0), None, None, Some(0.0), None, None, None], sigma: 1e-5, sigma_estimated: false });
+        e.channels.push(Channel {
+            signal: "piston.x".into(),
+            values: vec![Some(0.0), None, Some(0.0), None, None, Some(0.0), None, None, None],
+            sigma: 1e-5,
+            sigma_estimated: false,
+        });
         let exps = vec![e.clone(), e];
         let pr = Problem::new(&flat, &exps, vec![], vec![], SimSettings::default(), SensorModel::default(), 1e-3);
         let b = pr.blocks();
-        assert_eq!(b.iter().map(|b| (b.experiment, b.channel, b.rows.clone())).collect::<Vec<_>>(), vec![(0, 0, 0..9), (0, 1, 9..12), (1, 0, 12..21), (1, 1, 21..24)]);
+        assert_eq!(
+            b.iter().map(|b| (b.experiment, b.channel, b.rows.clone())).collect::<Vec<_>>(),
+            vec![(0, 0, 0..9), (0, 1, 9..12), (1, 0, 12..21), (1, 1, 21..24)]
+        );
         assert_eq!(pr.layout(), vec![(0, 0..12), (1, 12..24)]);
         assert_eq!(pr.len(), 24);
         // a missing simulated value counts as zero and is kept out of the offset
-        let (rows, fit) = channel_residuals(&[Some(1.0), Some(3.0), Some(5.0)], &[0, 1, 2], &[Some(0.0), None, Some(2.0)], 1.0, &SensorModel::default());
+        let (rows, fit) =
+            channel_residuals(&[Some(1.0), Some(3.0), Some(5.0)], &[0, 1, 2], &[Some(0.0), None, Some(2.0)], 1.0, &SensorModel::default());
         assert_eq!(fit.offset, 2.0);
         assert_eq!(rows, vec![1.0, 0.0, -1.0]);
     }

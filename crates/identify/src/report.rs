@@ -154,7 +154,8 @@ pub struct Outcome {
 /// Regressors for the residual correlations, from a simulation sampled at the data times.
 fn regressors(result: &solve::SimResult, e: &Experiment, topo: &Topology) -> Vec<(String, Vec<f64>)> {
     let all: Vec<usize> = (0..e.times.len()).collect();
-    let col = |name: &str| -> Option<Vec<f64>> { column_at(result, name, e, &all).map(|v| v.into_iter().map(|x| x.unwrap_or(0.0)).collect()) };
+    let col =
+        |name: &str| -> Option<Vec<f64>> { column_at(result, name, e, &all).map(|v| v.into_iter().map(|x| x.unwrap_or(0.0)).collect()) };
     let mut out = Vec::new();
     let rate = |v: &[f64]| -> Vec<f64> {
         (0..v.len())
@@ -320,7 +321,7 @@ pub fn summarize(
 pub fn remainders(m: &ModelSummary, th: &Thresholds) -> Vec<Remainder> {
     let mut out = Vec::new();
     for (ch, stats) in &m.diagnosis.channels {
-        if !(stats.rmse_normalized > th.remainder_rmse) {
+        if stats.rmse_normalized.is_nan() || stats.rmse_normalized <= th.remainder_rmse {
             continue;
         }
         let excess = |p: &crate::diagnose::PhaseStats| p.n as f64 * (p.rmse_normalized * p.rmse_normalized - 1.0);

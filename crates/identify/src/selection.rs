@@ -94,10 +94,10 @@ pub fn compare(a: &HeldOut, b: &HeldOut, th: &Thresholds) -> Comparison {
 /// Why a comparison fails tests 3 and 4 (empty when it passes).
 pub fn heldout_reasons(c: &Comparison, th: &Thresholds) -> Vec<String> {
     let mut out = Vec::new();
-    if !(c.relative >= th.heldout_gain) {
+    if c.relative.is_nan() || c.relative < th.heldout_gain {
         out.push(format!("held-out mean square lowered by {:.1} % (needs {:.0} %)", 100.0 * c.relative, 100.0 * th.heldout_gain));
     }
-    if !(c.ratio >= th.floor_ratio) {
+    if c.ratio.is_nan() || c.ratio < th.floor_ratio {
         out.push(format!(
             "below the model-form floor: held-out gain {:.3} is {:.2} × the remainder {:.3} it leaves (needs {})",
             c.gain, c.ratio, c.remainder, th.floor_ratio
@@ -147,7 +147,13 @@ pub fn ensure_heldout(base: &FlatNetlist, experiments: &[Experiment], s: &mut St
 }
 
 /// The structure without its effect number `i`, refitted on the full records.
-fn without<'a>(base: &'a FlatNetlist, experiments: &'a [Experiment], s: &Structure<'a>, i: usize, opts: &Options) -> Result<Structure<'a>, String> {
+fn without<'a>(
+    base: &'a FlatNetlist,
+    experiments: &'a [Experiment],
+    s: &Structure<'a>,
+    i: usize,
+    opts: &Options,
+) -> Result<Structure<'a>, String> {
     let mut effects = s.effects.clone();
     effects.remove(i);
     let mut params: Vec<FitParam> = Vec::new();
@@ -215,7 +221,8 @@ pub fn search<'a>(
         ));
         let mut preps: Vec<_> =
             tried.par_iter().map(|e| prepare(base, experiments, &current, *e, Pass { round, rescue: false }, opts)).collect();
-        let best = |p: &[crate::candidates::Prepared]| p.iter().map(|p| p.short_dic).filter(|d| d.is_finite()).fold(f64::INFINITY, f64::min);
+        let best =
+            |p: &[crate::candidates::Prepared]| p.iter().map(|p| p.short_dic).filter(|d| d.is_finite()).fold(f64::INFINITY, f64::min);
         let mut best_short = best(&preps);
         // Rescue (first round): the baseline's full-record calibration did not
         // converge and no candidate improved on the short records; start the
@@ -330,12 +337,11 @@ pub fn search<'a>(
         let mut i = 0;
         while i < current.effects.len() && current.effects.len() >= 2 {
             let name = current.effects[i].name().to_string();
-            let mut reduced = match path.iter().find(|p| {
-                p.effects.len() + 1 == current.effects.len() && p.effects.iter().all(|e| e.name() != name)
-            }) {
-                Some(p) => p.clone(),
-                None => without(base, experiments, &current, i, opts)?,
-            };
+            let mut reduced =
+                match path.iter().find(|p| p.effects.len() + 1 == current.effects.len() && p.effects.iter().all(|e| e.name() != name)) {
+                    Some(p) => p.clone(),
+                    None => without(base, experiments, &current, i, opts)?,
+                };
             out.evaluations += reduced.fit.evaluations;
             out.evaluations += ensure_heldout(base, experiments, &mut reduced, opts)?;
             out.evaluations += ensure_heldout(base, experiments, &mut current, opts)?;

@@ -280,7 +280,7 @@ mod tests {
         // y = a + b t with unit noise: the covariance is (JᵀJ)⁻¹ when ŝ = 1, τ = 1
         let n = 200;
         let j = DMatrix::from_fn(n, 2, |i, c| if c == 0 { 1.0 } else { i as f64 / n as f64 });
-        let blocks = vec![0..n];
+        let blocks: Vec<std::ops::Range<usize>> = std::iter::once(0..n).collect();
         let white = BlockStats { chi2: vec![n as f64], n: vec![n], tau: vec![1.0] };
         let cov = sandwich_covariance(&j, &white, &blocks).unwrap();
         let expect = (j.transpose() * &j).try_inverse().unwrap();

@@ -20,9 +20,9 @@
 //! Nothing else in the crate depends on this module: it is a test and
 //! example helper that uses the pipeline's inputs (experiments, effects).
 
+use crate::data::interpolate;
 use crate::data::Dataset;
 use crate::effects;
-use crate::data::interpolate;
 use crate::experiment::Experiment;
 use graph::FlatNetlist;
 
