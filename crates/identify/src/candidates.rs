@@ -9,11 +9,7 @@
 //!    current fit, on the first part of the records (the last short horizon).
 //! 2. From the best grid point (the best `starts` for effects with shape
 //!    parameters) fit calibration and effect parameters together on the short
-//!    records (shape parameters held); the best result is kept. In the
-//!    first round's rescue and in every later round, the scan and the fit
-//!    start from the current model's short-record optimum and fit only the
-//!    last short horizon, so a candidate (which nests the current model)
-//!    cannot end worse than its reference.
+//!    records (shape parameters held); the best result is kept.
 //! 3. Its **short-record ΔIC** against the current model (both fitted on the
 //!    same short records; effective sample sizes, [`crate::stats`]) decides
 //!    the screen.
@@ -259,22 +255,10 @@ pub fn prepare<'a>(
     let mut cand = Candidate::new(pass.round, effect.name());
     let horizon = screen_horizon(&opts.fit).unwrap_or(1.0);
     let grid = scan_grid(&effect.params());
-    // The rescue, and every round after the first, start from the current
-    // model's short-record optimum and fit the last short horizon only: the
-    // candidate nests the current model, so it must not end worse than that
-    // reference — re-running the 15 % stage from the full-record fit can
-    // (round 2 of a leak + delay truth: short-record ΔIC +1 150 for the leak).
-    let from_short = (pass.rescue || pass.round > 1) && current.short.is_some();
-    if from_short {
-        if let Some(s) = &current.short {
-            start = s.values.clone();
-            start.extend(added.iter().map(|p| p.start));
-        }
-    }
     let mut starts = vec![start];
     if !added.is_empty() && grid.len() > 1 {
         let scan_problem = problem.truncated(horizon);
-        let base_values = match (from_short, &current.short) {
+        let base_values = match (pass.rescue, &current.short) {
             (true, Some(s)) => &s.values,
             _ => &current.fit.values,
         };
@@ -294,7 +278,7 @@ pub fn prepare<'a>(
             starts = picked;
         }
     }
-    let fit_opts = if from_short {
+    let fit_opts = if pass.rescue {
         FitOptions { horizons: screen_horizon(&opts.fit).into_iter().collect(), ..opts.fit.clone() }
     } else {
         FitOptions { stage_max_iter: opts.screen_iter, ..opts.fit.clone() }
