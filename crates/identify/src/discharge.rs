@@ -649,7 +649,7 @@ pub fn simulate_discharge_thermal(
         record_steps: false,
         max_step: t_end / 50.0,
         max_events: 1000,
-        method: solve::SimOptions::default().method,
+        ..solve::SimOptions::default()
     };
     let result = solve::simulate(&mut model, &opts).map_err(|e| e.to_string())?;
     let p = result.series("tank.p").ok_or("no tank.p in the results")?;
