@@ -3,7 +3,7 @@
 //! code with pneumo), at the four operating points of the acceptance test.
 //!
 //! Shared by `tests/independent.rs` (CI set and the long matrix) and
-//! `examples/independent_matrix.rs` (which also writes datasets with their
+//! `examples/independent.rs` (which also writes datasets with their
 //! manifests for `pneumo discrepancy`).
 //!
 //! # What differs between the truth and the fitted model
