@@ -26,9 +26,10 @@
 
 use crate::error::CliError;
 use crate::output::Transaction;
+use identify::candidates::{Candidate, Estimate};
 use identify::diagnose::Trace;
 use identify::phases::Phase;
-use identify::workflow::{Candidate, Estimate, ModelSummary, Outcome};
+use identify::report::{ModelSummary, Outcome};
 use plotters::prelude::{
     BitMapBackend, ChartBuilder, Color, FontStyle, IntoDrawingArea, IntoLogRange, LineSeries, PathElement, RGBColor, Rectangle,
     SeriesLabelPosition, BLACK, WHITE,
@@ -150,7 +151,7 @@ fn fmt(v: f64) -> String {
     if a != 0.0 && !(1e-3..1e6).contains(&a) {
         format!("{v:.3e}")
     } else {
-        identify::problem::significant(v, 5)
+        identify::params::significant(v, 5)
     }
 }
 

@@ -222,6 +222,27 @@ pub fn parse_csv(text: &str, origin: &str) -> Result<Dataset, DataError> {
     })
 }
 
+/// Linear interpolation of (times, values) at `t`; values beyond the ends
+/// are held; a missing value next to `t` gives its defined neighbour.
+pub fn interpolate(times: &[f64], values: &[Option<f64>], t: f64) -> Option<f64> {
+    if times.is_empty() {
+        return None;
+    }
+    let k = times.partition_point(|&u| u <= t);
+    if k == 0 {
+        return values[0];
+    }
+    if k >= times.len() {
+        return values[times.len() - 1];
+    }
+    let (t0, t1) = (times[k - 1], times[k]);
+    match (values[k - 1], values[k]) {
+        (Some(a), Some(b)) if t1 > t0 => Some(a + (b - a) * (t - t0) / (t1 - t0)),
+        (Some(a), _) => Some(a),
+        (None, b) => b,
+    }
+}
+
 /// Robust white-noise standard deviation of one channel (see the module
 /// header); `None` if fewer than 10 usable triples.
 pub fn noise_sigma(times: &[f64], values: &[Option<f64>]) -> Option<f64> {
@@ -246,7 +267,7 @@ pub fn noise_sigma(times: &[f64], values: &[Option<f64>]) -> Option<f64> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::synth::Rng;
+    use crate::rng::Rng;
 
     #[test]
     fn reads_uneven_offset_times_and_missing_cells() {
@@ -278,6 +299,17 @@ mod tests {
         assert!(parse_csv("t,p,p\n", "g.csv").unwrap_err().to_string().contains("twice"));
         let e = parse_csv("t,p\n0,1\n1,inf\n2,3\n", "h.csv").unwrap_err().to_string();
         assert!(e.contains("h.csv:3") && e.contains("finite"), "{e}");
+    }
+
+    #[test]
+    fn interpolation_is_exact_on_lines_and_holds_beyond_the_ends() {
+        let t = [0.0, 1.0, 3.0];
+        let v = [Some(1.0), Some(3.0), Some(7.0)];
+        assert_eq!(interpolate(&t, &v, 0.5), Some(2.0));
+        assert_eq!(interpolate(&t, &v, 2.0), Some(5.0));
+        assert_eq!(interpolate(&t, &v, -1.0), Some(1.0));
+        assert_eq!(interpolate(&t, &v, 9.0), Some(7.0));
+        assert_eq!(interpolate(&t, &v, 1.0), Some(3.0));
     }
 
     #[test]

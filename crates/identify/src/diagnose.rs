@@ -17,6 +17,7 @@
 //! Missing samples (measured or simulated) are skipped.
 
 use crate::phases::Phase;
+use crate::stats::{autocorrelation, correlation, ljung_box_per_lag};
 use serde::Serialize;
 use std::collections::BTreeMap;
 
@@ -83,53 +84,6 @@ pub struct Diagnosis {
     pub correlations: BTreeMap<String, BTreeMap<String, f64>>,
     /// Normalised RMSE over all channels and samples.
     pub rmse_normalized: f64,
-}
-
-/// Sample autocorrelation of `x` at `lag` (mean removed; 0 when too short or constant).
-pub fn autocorrelation(x: &[f64], lag: usize) -> f64 {
-    let n = x.len();
-    if n <= lag + 1 {
-        return 0.0;
-    }
-    let mean = x.iter().sum::<f64>() / n as f64;
-    let var: f64 = x.iter().map(|v| (v - mean) * (v - mean)).sum();
-    if var <= 0.0 {
-        return 0.0;
-    }
-    let cov: f64 = (0..n - lag).map(|i| (x[i] - mean) * (x[i + lag] - mean)).sum();
-    cov / var
-}
-
-/// Ljung–Box Q over lags 1..=L, divided by L.
-pub fn ljung_box_per_lag(x: &[f64], lags: usize) -> f64 {
-    let n = x.len() as f64;
-    if x.len() <= lags + 1 {
-        return 0.0;
-    }
-    let q: f64 = (1..=lags).map(|k| autocorrelation(x, k).powi(2) / (n - k as f64)).sum::<f64>() * n * (n + 2.0);
-    q / lags as f64
-}
-
-/// Pearson correlation of paired samples (0 if either is constant).
-pub fn correlation(a: &[f64], b: &[f64]) -> f64 {
-    let n = a.len().min(b.len());
-    if n < 3 {
-        return 0.0;
-    }
-    let ma = a[..n].iter().sum::<f64>() / n as f64;
-    let mb = b[..n].iter().sum::<f64>() / n as f64;
-    let (mut sab, mut saa, mut sbb) = (0.0, 0.0, 0.0);
-    for i in 0..n {
-        let (da, db) = (a[i] - ma, b[i] - mb);
-        sab += da * db;
-        saa += da * da;
-        sbb += db * db;
-    }
-    if saa <= 0.0 || sbb <= 0.0 {
-        0.0
-    } else {
-        sab / (saa * sbb).sqrt()
-    }
 }
 
 /// Diagnose a set of traces (same channel names in each, in any order).
@@ -218,7 +172,7 @@ pub fn diagnose(traces: &[Trace]) -> Diagnosis {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::synth::Rng;
+    use crate::rng::Rng;
 
     fn trace(noise: &[f64], shift: impl Fn(f64) -> f64, phases: Vec<Phase>) -> Trace {
         let times: Vec<f64> = (0..noise.len()).map(|i| i as f64 * 1e-3).collect();

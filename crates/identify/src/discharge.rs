@@ -119,8 +119,8 @@
 //! the subsonic phase.
 
 use crate::data::noise_sigma;
-use crate::diagnose::autocorrelation;
 use crate::lsq::{least_squares, Bounds, LsqError, LsqOptions};
+use crate::stats::autocorrelation;
 use blocks::iso6358::{ANR_DENSITY, ANR_TEMPERATURE};
 use gas::GasModel;
 use serde::Serialize;

@@ -13,7 +13,8 @@
 //!   "noise": { "head.p": "5 mbar" },
 //!   "effects": ["piston_seal_leak", "valve_delay"],
 //!   "max_effects": 2,
-//!   "fit_interval": "4 ms"
+//!   "fit_interval": "4 ms",
+//!   "nuisance": { "offset": true, "gain": false }
 //! }
 //! ```
 //!
@@ -24,10 +25,12 @@
 //!   uses signal names (then every column but `t` is a signal).
 //! - `time_origin`: data time of simulation time 0 (default: first sample).
 //! - `calibrate`: parameters to fit with [lo, hi] bounds (default: see
-//!   [`crate::problem::default_calibration`]).
+//!   [`crate::params::default_calibration`]).
 //! - `noise`: sensor noise σ per signal (default: estimated from the data).
 //! - `effects`, `max_effects`, `fit_interval`: restrict the catalogue, the
 //!   number of effects added (default 2), the spacing of fitted samples.
+//! - `nuisance`: which sensor errors are fitted per experiment and channel
+//!   ([`crate::nuisance`]): `offset` (default true), `gain` (default false).
 //!
 //! Unknown keys are errors; errors name the file, line and column.
 
@@ -53,6 +56,18 @@ pub struct Manifest {
     pub max_effects: Option<usize>,
     #[serde(default)]
     pub fit_interval: Option<Value>,
+    #[serde(default)]
+    pub nuisance: Option<NuisanceSpec>,
+}
+
+/// The manifest's `nuisance` entry.
+#[derive(Debug, Clone, Copy, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct NuisanceSpec {
+    #[serde(default)]
+    pub offset: Option<bool>,
+    #[serde(default)]
+    pub gain: Option<bool>,
 }
 
 /// One experiment of the manifest.
@@ -125,9 +140,9 @@ pub type ReadData<'a> = dyn Fn(&str) -> Result<(String, String), String> + 'a;
 /// Everything the workflow needs from a manifest.
 #[derive(Debug, Clone)]
 pub struct Resolved {
-    pub experiments: Vec<crate::problem::Experiment>,
-    pub calibrate: Vec<crate::problem::CalibSpec>,
-    pub options: crate::workflow::Options,
+    pub experiments: Vec<crate::experiment::Experiment>,
+    pub calibrate: Vec<crate::params::CalibSpec>,
+    pub options: crate::options::Options,
 }
 
 /// Turn a manifest into experiments, calibration targets and options.
@@ -153,7 +168,7 @@ pub fn resolve(m: &Manifest, flat: &graph::FlatNetlist, read: &ReadData) -> Resu
         let sets = spec.set.iter().map(|(t, v)| set_text(t, v)).collect::<Result<Vec<_>, _>>()?;
         let t0 = spec.time_origin.as_ref().map(|v| seconds(v, "time_origin")).transpose()?;
         let name = spec.name.clone().unwrap_or_else(|| format!("exp{}", k + 1));
-        let e = crate::problem::Experiment::from_dataset(&name, &data, spec.columns.as_ref(), sets, t0, &noise)?;
+        let e = crate::experiment::Experiment::from_dataset(&name, &data, spec.columns.as_ref(), sets, t0, &noise)?;
         for c in &e.channels {
             if !units.contains_key(&c.signal) {
                 return Err(format!(
@@ -167,7 +182,7 @@ pub fn resolve(m: &Manifest, flat: &graph::FlatNetlist, read: &ReadData) -> Resu
         experiments.push(e);
     }
     let calibrate = match &m.calibrate {
-        None => crate::problem::default_calibration(flat),
+        None => crate::params::default_calibration(flat),
         Some(map) => map
             .iter()
             .map(|(target, (lo, hi))| {
@@ -177,11 +192,11 @@ pub fn resolve(m: &Manifest, flat: &graph::FlatNetlist, read: &ReadData) -> Resu
                 if lo.partial_cmp(&hi) != Some(std::cmp::Ordering::Less) {
                     return Err(format!("calibrate \"{target}\": lower bound {lo} is not below upper bound {hi}"));
                 }
-                Ok(crate::problem::CalibSpec { target: target.clone(), bounds: Some((lo, hi)) })
+                Ok(crate::params::CalibSpec { target: target.clone(), bounds: Some((lo, hi)) })
             })
             .collect::<Result<Vec<_>, String>>()?,
     };
-    let mut options = crate::workflow::Options::default();
+    let mut options = crate::options::Options::default();
     if let Some(names) = &m.effects {
         options.effects = Some(names.clone());
     }
@@ -194,6 +209,10 @@ pub fn resolve(m: &Manifest, flat: &graph::FlatNetlist, read: &ReadData) -> Resu
             return Err(format!("fit_interval must be > 0 s, got {dt}"));
         }
         options.fit_interval = dt;
+    }
+    if let Some(n) = m.nuisance {
+        options.sensors.offset = n.offset.unwrap_or(options.sensors.offset);
+        options.sensors.gain = n.gain.unwrap_or(options.sensors.gain);
     }
     Ok(Resolved { experiments, calibrate, options })
 }
@@ -216,6 +235,7 @@ mod tests {
         }"#;
         let m = parse(text, "m.json").unwrap();
         assert_eq!(m.experiments.len(), 2);
+        assert_eq!(m.nuisance, None);
         assert_eq!(set_text("supply.p", &m.experiments[0].set["supply.p"]).unwrap(), "supply.p=4 bar");
         assert_eq!(set_text("flow_control.C", &m.experiments[0].set["flow_control.C"]).unwrap(), "flow_control.C=0.0000000022");
         assert_eq!(seconds(m.experiments[0].time_origin.as_ref().unwrap(), "t0").unwrap(), 12.5);
@@ -242,7 +262,8 @@ mod tests {
     fn resolves_columns_noise_bounds_and_sets() {
         let flat = crate::netlist_edit::tests_support::meter_out();
         let text = r#"{ "experiments": [ { "data": "a.csv", "set": { "supply.p": "5 bar" }, "columns": { "p1": "head.p" }, "time_origin": 1.0 } ],
-                        "calibrate": { "friction.k0": ["1 N", "60 N"] }, "noise": { "head.p": "5 mbar" }, "effects": ["valve_delay"] }"#;
+                        "calibrate": { "friction.k0": ["1 N", "60 N"] }, "noise": { "head.p": "5 mbar" }, "effects": ["valve_delay"],
+                        "nuisance": { "gain": true } }"#;
         let m = parse(text, "m.json").unwrap();
         let csv: String = std::iter::once("t,p1,other\n".to_string())
             .chain((0..50).map(|i| format!("{},{},{}\n", 1.0 + i as f64 * 1e-3, 1e5 + i as f64, i)))
@@ -262,6 +283,7 @@ mod tests {
         assert_eq!(e.times[0], 0.0);
         assert_eq!(r.calibrate[0].bounds, Some((1.0, 60.0)));
         assert_eq!(r.options.effects, Some(vec!["valve_delay".to_string()]));
+        assert!(r.options.sensors.offset && r.options.sensors.gain);
         // a column mapped to something that is not a signal
         let bad = parse(r#"{ "experiments": [ { "data": "a.csv", "columns": { "p1": "head.pressure" } } ] }"#, "m.json").unwrap();
         let err = resolve(&bad, &flat, &read).unwrap_err();

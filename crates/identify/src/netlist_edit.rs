@@ -247,24 +247,19 @@ mod tests {
     use super::tests_support::meter_out;
     use super::*;
 
-    /// `"init": {"p0": "4 bar"}` on the rod chamber, as a netlist that does
-    /// not start from rest writes it.
-    fn write_rod_init_p0(flat: &mut FlatNetlist) {
-        component_mut(flat, "rod").unwrap().init.insert("p0".into(), Value::Text("4 bar".into()));
-    }
-
     #[test]
     fn reads_written_values_and_defaults_in_si() {
-        let mut flat = meter_out();
-        // the shipped model starts from rest; give the rod an explicit initial pressure
-        write_rod_init_p0(&mut flat);
+        let flat = meter_out();
         assert!((param_si(&flat, "head", "dead_volume").unwrap() - 20e-6).abs() < 1e-18);
         assert!((param_si(&flat, "flow_control", "C").unwrap() - 13.2e-3 / 60.0 / 1e5).abs() < 1e-20);
         // not written: the block default (switching_time 0, breakaway ratio 1)
         assert_eq!(param_si(&flat, "dcv", "switching_time").unwrap(), 0.0);
         assert_eq!(param_si(&flat, "friction", "breakaway_ratio").unwrap(), 1.0);
-        // the shipped model leaves initial pressures to the rest state
-        assert!(!is_given(&flat, "rod", "p0"));
+        // models/meter_out.json writes no initial state (the rest state
+        // before t = 0 sets it); init values written are read like parameters
+        let mut flat = flat;
+        set_param_si(&mut flat, "rod", "p0", 4e5).unwrap();
+        assert!((param_si(&flat, "rod", "p0").unwrap() - 4e5).abs() < 1e-9);
         assert!(param_si(&flat, "head", "nonsense").unwrap_err().to_string().contains("accepted"));
         assert!(param_si(&flat, "nobody", "C").is_err());
     }
@@ -272,14 +267,11 @@ mod tests {
     #[test]
     fn set_then_read_round_trips_and_keeps_init_entries_in_init() {
         let mut flat = meter_out();
-        write_rod_init_p0(&mut flat);
         set_param_si(&mut flat, "friction", "k0", 17.5).unwrap();
         assert_eq!(param_si(&flat, "friction", "k0").unwrap(), 17.5);
-        // an initial value written in `init` stays there and reads back
+        // an initial state written in `init` (the shipped model writes none)
         component_mut(&mut flat, "rod").unwrap().init.insert("p0".into(), Value::Number(4e5));
-        assert!((param_si(&flat, "rod", "p0").unwrap() - 4e5).abs() < 1e-9);
         set_param_si(&mut flat, "rod", "p0", 7e5).unwrap();
-        assert_eq!(param_si(&flat, "rod", "p0").unwrap(), 7e5);
         let rod = component(&flat, "rod").unwrap();
         assert!(rod.init.contains_key("p0") && !rod.params.contains_key("p0"));
         assert!(graph::build(&flat).is_ok());

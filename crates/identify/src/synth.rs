@@ -15,49 +15,18 @@
 //!    for pressures, a constant offset drawn once per experiment and channel
 //!    from N(0, (2 mbar)²).
 //!
-//! Random numbers: SplitMix64 (Steele, Lea & Flood 2014) for uniform
-//! integers, Box–Muller for normal deviates. Deterministic for a seed.
+//! Random numbers: [`crate::rng::Rng`]. Deterministic for a seed.
+//!
+//! Nothing else in the crate depends on this module: it is a test and
+//! example helper that uses the pipeline's inputs (experiments, effects).
 
+use crate::data::interpolate;
 use crate::data::Dataset;
 use crate::effects;
-use crate::workflow::Experiment;
+use crate::experiment::Experiment;
 use graph::FlatNetlist;
 
-/// A small deterministic random generator (SplitMix64).
-#[derive(Debug, Clone)]
-pub struct Rng {
-    state: u64,
-    spare: Option<f64>,
-}
-
-impl Rng {
-    pub fn new(seed: u64) -> Self {
-        Rng { state: seed ^ 0x9E37_79B9_7F4A_7C15, spare: None }
-    }
-    pub fn next_u64(&mut self) -> u64 {
-        self.state = self.state.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.state;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        z ^ (z >> 31)
-    }
-    /// Uniform in [0, 1).
-    pub fn uniform(&mut self) -> f64 {
-        (self.next_u64() >> 11) as f64 / (1u64 << 53) as f64
-    }
-    /// Standard normal deviate (Box–Muller).
-    pub fn normal(&mut self) -> f64 {
-        if let Some(z) = self.spare.take() {
-            return z;
-        }
-        let u1 = 1.0 - self.uniform(); // (0, 1]
-        let u2 = self.uniform();
-        let r = (-2.0 * u1.ln()).sqrt();
-        let a = 2.0 * std::f64::consts::PI * u2;
-        self.spare = Some(r * a.sin());
-        r * a.cos()
-    }
-}
+pub use crate::rng::Rng;
 
 /// Sensor noise of a synthetic measurement, by signal kind.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -122,26 +91,6 @@ impl Default for TruthSettings {
             noise: SensorNoise::default(),
             channels: vec!["head.p".into(), "rod.p".into(), "piston.x".into()],
         }
-    }
-}
-
-/// Linear interpolation of (times, values) at `t`; values beyond the ends are held.
-pub fn interpolate(times: &[f64], values: &[Option<f64>], t: f64) -> Option<f64> {
-    if times.is_empty() {
-        return None;
-    }
-    let k = times.partition_point(|&u| u <= t);
-    if k == 0 {
-        return values[0];
-    }
-    if k >= times.len() {
-        return values[times.len() - 1];
-    }
-    let (t0, t1) = (times[k - 1], times[k]);
-    match (values[k - 1], values[k]) {
-        (Some(a), Some(b)) if t1 > t0 => Some(a + (b - a) * (t - t0) / (t1 - t0)),
-        (Some(a), _) => Some(a),
-        (None, b) => b,
     }
 }
 
@@ -285,32 +234,6 @@ impl Scenario {
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn normal_deviates_have_unit_variance_and_zero_mean() {
-        let mut rng = Rng::new(1);
-        let n = 200_000;
-        let xs: Vec<f64> = (0..n).map(|_| rng.normal()).collect();
-        let mean = xs.iter().sum::<f64>() / n as f64;
-        let var = xs.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / n as f64;
-        assert!(mean.abs() < 0.01 && (var - 1.0).abs() < 0.01, "{mean} {var}");
-        let within = xs.iter().filter(|x| x.abs() < 1.96).count() as f64 / n as f64;
-        assert!((within - 0.95).abs() < 0.005, "{within}");
-        // same seed, same sequence; different seed, different sequence
-        assert_eq!(Rng::new(5).next_u64(), Rng::new(5).next_u64());
-        assert_ne!(Rng::new(5).next_u64(), Rng::new(6).next_u64());
-    }
-
-    #[test]
-    fn interpolation_is_exact_on_lines_and_holds_beyond_the_ends() {
-        let t = [0.0, 1.0, 3.0];
-        let v = [Some(1.0), Some(3.0), Some(7.0)];
-        assert_eq!(interpolate(&t, &v, 0.5), Some(2.0));
-        assert_eq!(interpolate(&t, &v, 2.0), Some(5.0));
-        assert_eq!(interpolate(&t, &v, -1.0), Some(1.0));
-        assert_eq!(interpolate(&t, &v, 9.0), Some(7.0));
-        assert_eq!(interpolate(&t, &v, 1.0), Some(3.0));
-    }
 
     #[test]
     fn perturbation_sizes_are_between_10_and_20_percent() {

@@ -1,0 +1,94 @@
+//! One case of the independent-truth matrix through the workflow, or its
+//! dataset written for `pneumo discrepancy`.
+//!
+//! ```text
+//! cargo run --release -p pneumo-identify --example independent -- CASE SEED [nominal|varied] [--write DIR] [--cycles N]
+//! ```
+//!
+//! CASE is `none`, a catalogue effect, or `piston_seal_leak+valve_delay`
+//! (see `tests/truth/mod.rs`). With `--write DIR` it writes `DIR/<op>.csv`,
+//! `DIR/E.json` and `DIR/model.json` (the model to hand to the workflow)
+//! and does not run the workflow.
+
+#[path = "../tests/truth/mod.rs"]
+mod truth;
+
+use truth::{Case, Variation};
+
+fn main() -> Result<(), String> {
+    let args: Vec<String> = std::env::args().skip(1).collect();
+    let case = args.first().and_then(|c| Case::by_name(c)).ok_or("first argument: a case name")?;
+    let seed: u64 = args.get(1).and_then(|s| s.parse().ok()).ok_or("second argument: a seed")?;
+    let variation = match args.get(2).map(String::as_str) {
+        Some("varied") => Variation::Varied,
+        _ => Variation::Nominal,
+    };
+    let flag = |name: &str| args.iter().position(|a| a == name).and_then(|i| args.get(i + 1)).cloned();
+    let cycles: usize = flag("--cycles").and_then(|c| c.parse().ok()).unwrap_or(3);
+    let mut t = truth::draw(case, seed, variation);
+    // development knob: FORM="index=0.49,laminar=1e-3,check=2000,tol=1e-4,lat=2e-4,skew=1e-3,gain=1e-3,jitter=1e-4,xoff=5e-5"
+    if let Ok(spec) = std::env::var("FORM") {
+        for kv in spec.split(',').filter(|s| !s.is_empty()) {
+            let (k, v) = kv.split_once('=').ok_or("FORM: key=value")?;
+            let v: f64 = v.parse().map_err(|_| format!("FORM: {kv}"))?;
+            match k {
+                "index" => t.form.subsonic.index = v,
+                "laminar" => t.form.subsonic.laminar_width = Some(v),
+                "check" => t.form.check = rig::CheckLaw::Linear { opening: v },
+                "tol" => t.form.switches.tolerance = v,
+                "lat" => t.form.switches.latency = v,
+                "skew" => t.sensors.time_skew = v,
+                "gain" => t.sensors.pressure.gain_sd = v,
+                "jitter" => t.sensors.jitter_sd = v,
+                "xoff" => t.sensors.position.offset_sd = v,
+                "drop" => t.sensors.dropout = v,
+                _ => return Err(format!("FORM: unknown key {k}")),
+            }
+        }
+        t.description += &format!("; FORM {spec}");
+    }
+    eprintln!("{}: {}", case.name(), t.description);
+    let clock = std::time::Instant::now();
+    let records = truth::records(&t, seed, cycles)?;
+    eprintln!("generated in {:.1} s", clock.elapsed().as_secs_f64());
+    if let Some(dir) = flag("--write") {
+        let dir = std::path::PathBuf::from(dir);
+        std::fs::create_dir_all(&dir).map_err(|e| e.to_string())?;
+        for r in &records {
+            let f = std::fs::File::create(dir.join(format!("{}.csv", r.name))).map_err(|e| e.to_string())?;
+            rig::sensors::write_csv(&r.measured, std::io::BufWriter::new(f)).map_err(|e| e.to_string())?;
+        }
+        let desc = format!("pneumo-rig truth, case {}, seed {seed}: {}", case.name(), t.description);
+        std::fs::write(dir.join("E.json"), truth::manifest_text(&records, &desc)).map_err(|e| e.to_string())?;
+        std::fs::write(dir.join("model.json"), truth::model_text(case)).map_err(|e| e.to_string())?;
+        eprintln!("wrote {}", dir.display());
+        return Ok(());
+    }
+    let experiments = truth::experiments(&records)?;
+    let model = truth::model(case);
+    let calibrate = identify::params::default_calibration(&model);
+    let mut options = identify::Options { report: true, ..identify::Options::default() };
+    if std::env::var("BASEONLY").is_ok() {
+        options.effects = Some(vec![]);
+    }
+    let o = identify::run(&model, &experiments, &calibrate, &options).map_err(|e| e.to_string())?;
+    let s = &o.summary;
+    println!("verdict: {}", s.verdict);
+    println!("baseline rmse_n {:?} held-out {:.3}", s.baseline.rmse_normalized, s.baseline.heldout_rmse);
+    for c in &s.candidates {
+        println!(
+            "  r{} {:<18} dIC {:>10.1} chi2 {:>10.1} held {:>7.3} {} {:?} {}",
+            c.round,
+            c.effect,
+            c.delta_ic,
+            c.chi2,
+            c.heldout_rmse,
+            if c.accepted { "PASS" } else { "fail" },
+            c.params,
+            c.reasons.join("; ")
+        );
+    }
+    println!("after rmse_n {:?}", s.after.rmse_normalized);
+    println!("{} simulations, {:.1} s, {:?}", s.evaluations, s.seconds, s.timing);
+    Ok(())
+}

@@ -1,0 +1,409 @@
+//! Trying one candidate effect on top of the current model: starting points
+//! from the effect's scan grid, the short-record stages, the screen, the
+//! full-record fit and the parameter test. The information-criterion,
+//! held-out and floor tests that compare candidates are in
+//! [`crate::selection`].
+//!
+//! # Steps (phase A: [`prepare`])
+//! 1. **Scan** the effect's parameter grid with the calibration held at the
+//!    current fit, on the first part of the records (the last short horizon).
+//! 2. From the best grid point (the best `starts` for effects with shape
+//!    parameters) fit calibration and effect parameters together on the short
+//!    records (shape parameters held); the best result is kept.
+//! 3. Its **short-record ΔIC** against the current model (both fitted on the
+//!    same short records; effective sample sizes, [`crate::stats`]) decides
+//!    the screen.
+//!
+//! # Phase B: [`finish`]
+//! The full-record fit from the short-record solution, restarted while it
+//! stops far above the noise and each restart still helps; then the
+//! parameter test: at least one parameter with a null value lies more than
+//! `z_null` correlation-aware standard errors from it (its 95 % interval
+//! excludes the null by a margin), and no parameter with a null sits at a
+//! bound other than that null.
+
+use crate::effects::{scan_grid, Effect, Scale};
+use crate::fit::{block_stats, chi2, fit_once, fit_short_stages, screen_horizon, Fit, FitOptions, Staged};
+use crate::heldout::HeldOut;
+use crate::options::Options;
+use crate::params::{effect_params, FitParam};
+use crate::problem::Problem;
+use crate::stats::{delta_ic, BlockStats};
+
+use graph::FlatNetlist;
+use rayon::prelude::*;
+use serde::Serialize;
+use std::collections::BTreeMap;
+
+/// The short-record reference of a model: parameters and block statistics
+/// on the screening horizon.
+#[derive(Debug, Clone)]
+pub struct Short {
+    pub values: Vec<f64>,
+    pub stats: BlockStats,
+}
+
+/// A fitted model structure.
+#[derive(Clone)]
+pub struct Structure<'a> {
+    pub effects: Vec<&'a dyn Effect>,
+    pub params: Vec<FitParam>,
+    pub fit: Fit,
+    /// Held-out errors, once computed.
+    pub heldout: Option<HeldOut>,
+    /// The screening reference, if known.
+    pub short: Option<Short>,
+}
+
+impl Structure<'_> {
+    /// "baseline" or "a+b".
+    pub fn label(&self) -> String {
+        if self.effects.is_empty() {
+            "baseline".into()
+        } else {
+            self.names().join("+")
+        }
+    }
+    /// Names of the effects, in order.
+    pub fn names(&self) -> Vec<String> {
+        self.effects.iter().map(|e| e.name().to_string()).collect()
+    }
+}
+
+/// The fitting problem of a structure.
+pub fn problem_for<'a>(
+    base: &'a FlatNetlist,
+    experiments: &'a [crate::experiment::Experiment],
+    effects: Vec<&'a dyn Effect>,
+    params: Vec<FitParam>,
+    opts: &Options,
+) -> Problem<'a> {
+    Problem::new(base, experiments, effects, params, opts.sim, opts.sensors, opts.fit_interval)
+}
+
+/// The better of a short-stage fit and the final values evaluated on the
+/// screening horizon: the reference a candidate must beat on short records.
+pub fn short_reference(problem: &Problem, staged: Option<&Fit>, values: &[f64], opts: &Options) -> Option<Short> {
+    let h = screen_horizon(&opts.fit)?;
+    let short = problem.truncated(h);
+    let at_final = short.residuals(values).ok().map(|r| Short { values: values.to_vec(), stats: block_stats(&short, &r) });
+    let staged = staged.map(|f| Short { values: f.values.clone(), stats: f.stats.clone() });
+    match (staged, at_final) {
+        (Some(a), Some(b)) => Some(if a.stats.chi2_total() <= b.stats.chi2_total() { a } else { b }),
+        (a, b) => a.or(b),
+    }
+}
+
+/// A fitted parameter, as reported.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Estimate {
+    pub name: String,
+    /// SI value.
+    pub value: f64,
+    pub unit: String,
+    /// Value in `unit` (when the unit converts).
+    pub shown: Option<f64>,
+    /// Linearised, correlation-aware standard error [SI].
+    pub std_error: Option<f64>,
+    /// 95 % confidence interval [SI] (symmetric in the fit coordinate).
+    pub ci95: Option<(f64, f64)>,
+    pub lo: f64,
+    pub hi: f64,
+    pub at_bound: bool,
+}
+
+fn display(value: f64, unit: &str) -> Option<f64> {
+    if unit.is_empty() {
+        return Some(value);
+    }
+    units::to_unit(value, unit).ok().filter(|v| v.is_finite())
+}
+
+/// Estimates with intervals of every parameter of a fit.
+pub fn estimates(params: &[FitParam], f: &Fit) -> Vec<Estimate> {
+    params
+        .iter()
+        .enumerate()
+        .map(|(i, p)| {
+            let su = f.std_u.as_ref().and_then(|s| s.get(i).copied()).filter(|s| s.is_finite());
+            let v = f.values[i];
+            let (se, ci) = match su {
+                Some(s) => {
+                    let (a, b) = (p.from_u(f.u[i] - 1.96 * s), p.from_u(f.u[i] + 1.96 * s));
+                    let se = match p.scale {
+                        Scale::Linear => s * p.typical,
+                        Scale::Log => s * v.abs(),
+                    };
+                    (Some(se), Some((a.min(b), a.max(b))))
+                }
+                None => (None, None),
+            };
+            Estimate {
+                name: p.name.clone(),
+                value: v,
+                unit: p.unit.clone(),
+                shown: display(v, &p.unit),
+                std_error: se,
+                ci95: ci,
+                lo: p.lo,
+                hi: p.hi,
+                at_bound: f.at_bound.get(i).copied().unwrap_or(false),
+            }
+        })
+        .collect()
+}
+
+/// One candidate tried, as reported.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Candidate {
+    pub round: usize,
+    pub effect: String,
+    /// Effect parameters [SI].
+    pub params: BTreeMap<String, f64>,
+    pub estimates: Vec<Estimate>,
+    /// ΔIC on effective sample sizes against the current model (on the
+    /// short records when screened out).
+    pub delta_ic: f64,
+    pub chi2: f64,
+    /// Held-out normalised RMSE of the model with the effect.
+    pub heldout_rmse: f64,
+    /// Held-out mean square removed, in noise variances.
+    pub heldout_gain: f64,
+    /// Held-out gain divided by the held-out remainder above the noise (the floor test).
+    pub floor_ratio: f64,
+    /// Fraction of the current model's excess χ² (above N) removed.
+    pub gap_explained: f64,
+    pub accepted: bool,
+    /// Why it was not accepted (empty when it passed every test).
+    pub reasons: Vec<String>,
+    /// Remarks that do not reject it (a shape parameter at a bound).
+    pub notes: Vec<String>,
+    pub evaluations: usize,
+    /// How the candidate's least-squares fit ended.
+    pub fit_message: String,
+    /// Stopped after the short-record stage.
+    pub screened_out: bool,
+}
+
+impl Candidate {
+    fn new(round: usize, effect: &str) -> Self {
+        Candidate {
+            round,
+            effect: effect.to_string(),
+            params: BTreeMap::new(),
+            estimates: vec![],
+            delta_ic: f64::NAN,
+            chi2: f64::NAN,
+            heldout_rmse: f64::NAN,
+            heldout_gain: f64::NAN,
+            floor_ratio: f64::NAN,
+            gap_explained: 0.0,
+            accepted: false,
+            reasons: vec![],
+            notes: vec![],
+            evaluations: 0,
+            fit_message: String::new(),
+            screened_out: false,
+        }
+    }
+}
+
+/// A candidate after phase A.
+pub struct Prepared<'a> {
+    pub effects: Vec<&'a dyn Effect>,
+    pub params: Vec<FitParam>,
+    pub added: Vec<FitParam>,
+    pub problem: Problem<'a>,
+    /// The best short-record result over the starting points.
+    pub short: Option<Staged>,
+    /// ΔIC against the current model on the short records.
+    pub short_dic: f64,
+    pub cand: Candidate,
+}
+
+/// Which round a candidate is prepared for, and whether as the first
+/// round's rescue (started from the current model's short-record optimum).
+#[derive(Debug, Clone, Copy)]
+pub struct Pass {
+    pub round: usize,
+    pub rescue: bool,
+}
+
+/// Short name of an effect parameter ("piston_seal_leak.C" → "C").
+fn short_name(p: &FitParam) -> String {
+    p.name.rsplit('.').next().unwrap_or(&p.name).to_string()
+}
+
+/// Phase A (see the module header).
+pub fn prepare<'a>(
+    base: &'a FlatNetlist,
+    experiments: &'a [crate::experiment::Experiment],
+    current: &Structure<'a>,
+    effect: &'a dyn Effect,
+    pass: Pass,
+    opts: &Options,
+) -> Prepared<'a> {
+    let slot = current.effects.len();
+    let mut effects = current.effects.clone();
+    effects.push(effect);
+    let added = effect_params(effect, slot);
+    let mut params = current.params.clone();
+    params.extend(added.iter().cloned());
+    let mut start = current.fit.values.clone();
+    start.extend(added.iter().map(|p| p.start));
+    let problem = problem_for(base, experiments, effects.clone(), params.clone(), opts);
+    let mut cand = Candidate::new(pass.round, effect.name());
+    let horizon = screen_horizon(&opts.fit).unwrap_or(1.0);
+    let grid = scan_grid(&effect.params());
+    let mut starts = vec![start];
+    if !added.is_empty() && grid.len() > 1 {
+        let scan_problem = problem.truncated(horizon);
+        let base_values = match (pass.rescue, &current.short) {
+            (true, Some(s)) => &s.values,
+            _ => &current.fit.values,
+        };
+        let mut scored: Vec<(f64, Vec<f64>)> = grid
+            .par_iter()
+            .filter_map(|g| {
+                let mut v = base_values.clone();
+                v.extend(g.iter().copied());
+                Some((chi2(&scan_problem, &v).ok()?, v))
+            })
+            .collect();
+        cand.evaluations += grid.len();
+        scored.sort_by(|a, b| a.0.total_cmp(&b.0));
+        let n_starts = if added.iter().any(|p| p.null.is_none()) { opts.starts.max(1) } else { 1 };
+        let picked: Vec<Vec<f64>> = scored.into_iter().take(n_starts).map(|(_, v)| v).collect();
+        if !picked.is_empty() {
+            starts = picked;
+        }
+    }
+    let fit_opts = if pass.rescue {
+        FitOptions { horizons: screen_horizon(&opts.fit).into_iter().collect(), ..opts.fit.clone() }
+    } else {
+        FitOptions { stage_max_iter: opts.screen_iter, ..opts.fit.clone() }
+    };
+    let shorts: Vec<Result<Staged, String>> = starts.par_iter().map(|st| fit_short_stages(&problem, st, &fit_opts)).collect();
+    cand.evaluations += shorts.iter().map(|r| r.as_ref().map_or(0, |s| s.evaluations)).sum::<usize>();
+    let mut errors: Vec<String> = shorts.iter().filter_map(|r| r.as_ref().err().cloned()).collect();
+    let short = shorts.into_iter().filter_map(|r| r.ok()).min_by(|a, b| {
+        let key = |s: &Staged| s.short.as_ref().map_or(f64::INFINITY, |f| f.chi2);
+        key(a).total_cmp(&key(b))
+    });
+    if short.is_none() {
+        errors.dedup();
+        cand.reasons.push(format!("fit failed: {}", errors.join("; ")));
+    }
+    let short_dic = match (short.as_ref().and_then(|s| s.short.as_ref()), &current.short) {
+        (Some(b), Some(a)) if a.stats.n == b.stats.n => delta_ic(&a.stats.chi2, &b.stats.chi2, &b.stats.n_eff(), added.len() as isize),
+        _ => f64::NAN,
+    };
+    if let Some(v) = short.as_ref().and_then(|s| s.values_short()) {
+        let first = params.len() - added.len();
+        for (p, x) in added.iter().zip(&v[first..]) {
+            cand.params.insert(short_name(p), *x);
+        }
+    }
+    Prepared { effects, params, added, problem, short, short_dic, cand }
+}
+
+/// A candidate stopped after phase A.
+pub fn screened(mut p: Prepared, why: String) -> Candidate {
+    p.cand.screened_out = true;
+    p.cand.delta_ic = p.short_dic;
+    p.cand.fit_message = "screened out after the short-record stages".into();
+    p.cand.reasons.push(why);
+    p.cand
+}
+
+/// χ²/N above which a candidate's full-record fit is restarted.
+const RESTART_CHI2_PER_SAMPLE: f64 = 2.0;
+/// At most this many restarts of a candidate's full-record fit.
+const MAX_RESTARTS: usize = 3;
+
+/// Phase B (see the module header): the full-record fit and the parameter test.
+pub fn finish<'a>(current: &Structure<'a>, prep: Prepared<'a>, opts: &Options) -> (Option<Structure<'a>>, Candidate) {
+    let Prepared { effects, params, added, problem, short, mut cand, .. } = prep;
+    let Some(short) = short else { return (None, cand) };
+    let fit_opts = FitOptions { stage_max_iter: opts.screen_iter, ..opts.fit.clone() };
+    let from = short
+        .values_short()
+        .map(<[f64]>::to_vec)
+        .unwrap_or_else(|| current.fit.values.iter().copied().chain(added.iter().map(|p| p.start)).collect());
+    let mut f = match fit_once(&problem, &from, &fit_opts) {
+        Ok(f) => f,
+        Err(e) => {
+            cand.reasons.push(format!("fit failed: {e}"));
+            return (None, cand);
+        }
+    };
+    cand.evaluations += f.evaluations;
+    let n_res = f.residuals.len().max(1) as f64;
+    // Restart while the fit stops far above the noise level and each restart
+    // still lowers χ² by more than 1 %: near an event (the stick → slip switch
+    // of a breakaway) the finite-difference Jacobian is poor and
+    // Levenberg–Marquardt's step test can end the fit where it stands.
+    for _ in 0..MAX_RESTARTS {
+        if f.chi2 <= RESTART_CHI2_PER_SAMPLE * n_res {
+            break;
+        }
+        let Ok(g) = fit_once(&problem, &f.values, &fit_opts) else { break };
+        cand.evaluations += g.evaluations;
+        let progress = g.chi2 < 0.99 * f.chi2;
+        if g.chi2 < f.chi2 {
+            f = g;
+        }
+        if !progress {
+            break;
+        }
+    }
+    let th = &opts.thresholds;
+    let first = params.len() - added.len();
+    cand.fit_message = f.message.clone();
+    cand.chi2 = f.chi2;
+    cand.delta_ic = delta_ic(&current.fit.stats.chi2, &f.stats.chi2, &f.stats.n_eff(), added.len() as isize);
+    let excess = current.fit.chi2 - n_res;
+    cand.gap_explained = if excess > 0.0 { (current.fit.chi2 - f.chi2) / excess } else { 0.0 };
+    let est = estimates(&params, &f);
+    cand.estimates = est[first..].to_vec();
+    cand.params = added.iter().zip(&cand.estimates).map(|(p, e)| (short_name(p), e.value)).collect();
+    // the parameter test
+    let with_null: Vec<usize> = (first..params.len()).filter(|&i| params[i].null.is_some()).collect();
+    if !with_null.is_empty() {
+        match &f.std_u {
+            None => cand.reasons.push("parameters not identifiable (singular covariance)".into()),
+            Some(std) => {
+                let best_z = with_null
+                    .iter()
+                    .filter_map(|&i| {
+                        let p = &params[i];
+                        let s = std[i];
+                        (s > 0.0 && s.is_finite()).then(|| (f.u[i] - p.to_u(p.null.unwrap_or(0.0))).abs() / s)
+                    })
+                    .fold(0.0_f64, f64::max);
+                if best_z < th.z_null {
+                    cand.reasons.push(format!(
+                        "parameter within {best_z:.1} standard errors of its null value (needs {}; correlation-aware errors)",
+                        th.z_null
+                    ));
+                }
+            }
+        }
+    }
+    for (i, p) in params.iter().enumerate().skip(first) {
+        let (ulo, uhi) = (p.to_u(p.lo), p.to_u(p.hi));
+        let margin = th.bound_margin * (uhi - ulo);
+        for (b, ub) in [(p.lo, ulo), (p.hi, uhi)] {
+            if (f.u[i] - ub).abs() <= margin && p.null != Some(b) {
+                if p.null.is_some() {
+                    cand.reasons.push(format!("{} at its bound {}", p.name, b));
+                } else {
+                    cand.notes.push(format!("shape parameter {} at its bound {}", p.name, b));
+                }
+            }
+        }
+    }
+    let short_ref = short_reference(&problem, short.short.as_ref(), &f.values, opts);
+    let s = Structure { effects, params, fit: f, heldout: None, short: short_ref };
+    (Some(s), cand)
+}

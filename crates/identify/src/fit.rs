@@ -1,0 +1,196 @@
+//! Least-squares fits of a [`Problem`]: one Levenberg–Marquardt run
+//! ([`crate::lsq`]) in the parameters' fit coordinates, continuation over
+//! the record length, and the fit's honest statistics.
+//!
+//! # Continuation over the record length
+//! Position-triggered cycles make the least-squares landscape treacherous: a
+//! 1 % speed error shifts later strokes by milliseconds, and after a cycle
+//! or two a position residual stops growing with the error (the strokes
+//! "alias"), leaving local minima. A fit therefore runs on the first
+//! fraction h of each record for each h of [`FitOptions::horizons`] in turn,
+//! each stage starting from the previous one's solution.
+//!
+//! # Statistics of a fit
+//! Per block (experiment × channel, [`crate::problem::Block`]): χ², sample
+//! count and integrated autocorrelation time ([`crate::stats::BlockStats`]);
+//! the covariance of the fit coordinates is the block-wise sandwich of
+//! [`crate::stats::sandwich_covariance`], so that standard errors and
+//! confidence intervals account for correlated residuals.
+
+use crate::lsq::{least_squares, Bounds, LsqOptions};
+use crate::problem::Problem;
+use crate::stats::{sandwich_covariance, BlockStats};
+
+/// Result of one fit.
+#[derive(Debug, Clone)]
+pub struct Fit {
+    /// Fit coordinates and SI values at the solution.
+    pub u: Vec<f64>,
+    pub values: Vec<f64>,
+    /// Standard errors in fit coordinates (linearised, correlation-aware;
+    /// `None` if not identifiable).
+    pub std_u: Option<Vec<f64>>,
+    /// Covariance of the fit coordinates (see the module header).
+    pub cov_u: Option<nalgebra::DMatrix<f64>>,
+    /// Per-block χ², sizes and correlation times of the residuals.
+    pub stats: BlockStats,
+    pub residuals: Vec<f64>,
+    pub jacobian: nalgebra::DMatrix<f64>,
+    /// Σr² (χ² in noise units).
+    pub chi2: f64,
+    pub at_bound: Vec<bool>,
+    pub converged: bool,
+    pub evaluations: usize,
+    pub iterations: usize,
+    pub message: String,
+}
+
+/// Options of one least-squares fit.
+#[derive(Debug, Clone)]
+pub struct FitOptions {
+    /// Step attempts of the full-record stage.
+    pub max_iter: usize,
+    /// Step attempts of each short-record stage.
+    pub stage_max_iter: usize,
+    pub ftol: f64,
+    /// Finite-difference step in fit coordinates.
+    pub fd_step: f64,
+    pub parallel: bool,
+    /// Continuation in the record length: the fit is run on the first
+    /// fraction h of each record for each h in turn, each stage starting
+    /// from the previous one's solution. Fitting the start of the records
+    /// first keeps cycle-timing errors from accumulating over many cycles
+    /// (where a position residual stops growing with the timing error and
+    /// the least-squares landscape gets local minima).
+    pub horizons: Vec<f64>,
+}
+
+impl Default for FitOptions {
+    fn default() -> Self {
+        FitOptions { max_iter: 30, stage_max_iter: 30, ftol: 1e-8, fd_step: 1e-3, parallel: true, horizons: vec![0.15, 0.4, 1.0] }
+    }
+}
+
+/// Σr² of the problem at SI values.
+pub fn chi2(problem: &Problem, values: &[f64]) -> Result<f64, String> {
+    Ok(problem.residuals(values)?.iter().map(|x| x * x).sum())
+}
+
+/// Outcome of [`fit_staged`].
+#[derive(Debug, Clone)]
+pub struct Staged {
+    /// The full-record fit (`None` when the screen stopped before it).
+    pub fit: Option<Fit>,
+    /// The last short-record stage's fit, on its own (truncated) records
+    /// (`None` without short stages).
+    pub short: Option<Fit>,
+    /// Simulations of the problem run (all stages).
+    pub evaluations: usize,
+}
+
+impl Staged {
+    /// Parameters after the last short-record stage.
+    pub fn values_short(&self) -> Option<&[f64]> {
+        self.short.as_ref().map(|f| f.values.as_slice())
+    }
+}
+
+/// Fit with continuation over the record length: each short-record stage
+/// starts from the previous stage's solution, the full-record stage from the
+/// last short one.
+///
+/// Shape parameters of effects (those without a null value, e.g. a Stribeck
+/// velocity or a line volume) are held at their starting values during the
+/// short-record stages: the first part of a record rarely determines them,
+/// and left free they drift to their bounds.
+pub fn fit_staged(problem: &Problem, start: &[f64], opts: &FitOptions) -> Result<Staged, String> {
+    let short = fit_short_stages(problem, start, opts)?;
+    let values = short.values_short().map(<[f64]>::to_vec).unwrap_or_else(|| start.to_vec());
+    let f = fit_once(problem, &values, opts)?;
+    Ok(Staged { evaluations: short.evaluations + f.evaluations, fit: Some(f), ..short })
+}
+
+/// The short-record stages of [`fit_staged`] only (`fit` is `None`).
+pub fn fit_short_stages(problem: &Problem, start: &[f64], opts: &FitOptions) -> Result<Staged, String> {
+    let mut values = start.to_vec();
+    let mut spent = 0;
+    let mut last = None;
+    let short: Vec<f64> = opts.horizons.iter().copied().filter(|h| *h > 0.0 && *h < 1.0).collect();
+    let shape: Vec<bool> = problem.params.iter().map(|p| p.is_effect() && p.null.is_none()).collect();
+    for &h in &short {
+        let mut stage = problem.truncated(h);
+        for (p, (&fixed, &v)) in stage.params.iter_mut().zip(shape.iter().zip(&values)) {
+            if fixed {
+                p.lo = v;
+                p.hi = v;
+            }
+        }
+        let f = fit_once(&stage, &values, &FitOptions { max_iter: opts.stage_max_iter, ..opts.clone() })?;
+        spent += f.evaluations;
+        values = f.values.clone();
+        last = Some(f);
+    }
+    Ok(Staged { fit: None, short: last, evaluations: spent })
+}
+
+/// The last short horizon of the continuation (the screening horizon), if any.
+pub fn screen_horizon(opts: &FitOptions) -> Option<f64> {
+    opts.horizons.iter().copied().filter(|h| *h > 0.0 && *h < 1.0).fold(None, |m: Option<f64>, h| Some(m.map_or(h, |x| x.max(h))))
+}
+
+/// One least-squares fit starting from SI values `start`.
+pub fn fit_once(problem: &Problem, start: &[f64], opts: &FitOptions) -> Result<Fit, String> {
+    let lo: Vec<f64> = problem.params.iter().map(|p| p.to_u(p.lo)).collect();
+    let hi: Vec<f64> = problem.params.iter().map(|p| p.to_u(p.hi)).collect();
+    let u0: Vec<f64> = problem.params.iter().zip(start).map(|(p, &v)| p.to_u(v.clamp(p.lo, p.hi))).collect();
+    let f = |u: &[f64]| problem.residuals(&problem.values_of(u));
+    if problem.params.is_empty() {
+        let r = f(&[])?;
+        let chi2 = r.iter().map(|x| x * x).sum();
+        let stats = block_stats(problem, &r);
+        return Ok(Fit {
+            u: vec![],
+            values: vec![],
+            std_u: Some(vec![]),
+            cov_u: None,
+            stats,
+            jacobian: nalgebra::DMatrix::zeros(r.len(), 0),
+            residuals: r,
+            chi2,
+            at_bound: vec![],
+            converged: true,
+            evaluations: 1,
+            iterations: 0,
+            message: "no parameters".into(),
+        });
+    }
+    let lsq_opts =
+        LsqOptions { max_iter: opts.max_iter, ftol: opts.ftol, xtol: 1e-8, gtol: 1e-8, fd_rel_step: opts.fd_step, parallel: opts.parallel };
+    let res = least_squares(f, &u0, &Bounds::new(lo, hi), &lsq_opts).map_err(|e| e.to_string())?;
+    let values = problem.values_of(&res.x);
+    let stats = block_stats(problem, &res.residuals);
+    let ranges: Vec<_> = problem.blocks().into_iter().map(|b| b.rows).collect();
+    let cov_u = sandwich_covariance(&res.jacobian, &stats, &ranges);
+    let std_u = cov_u.as_ref().map(|c| (0..c.nrows()).map(|i| c[(i, i)].max(0.0).sqrt()).collect());
+    Ok(Fit {
+        chi2: 2.0 * res.cost,
+        values,
+        u: res.x,
+        std_u,
+        cov_u,
+        stats,
+        residuals: res.residuals,
+        jacobian: res.jacobian,
+        at_bound: res.at_bound,
+        converged: res.converged,
+        evaluations: res.evaluations,
+        iterations: res.iterations,
+        message: res.message,
+    })
+}
+
+/// Block statistics of a residual vector of `problem`.
+pub fn block_stats(problem: &Problem, r: &[f64]) -> BlockStats {
+    let ranges: Vec<_> = problem.blocks().into_iter().map(|b| b.rows).collect();
+    BlockStats::of(r, &ranges)
+}

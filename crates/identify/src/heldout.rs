@@ -1,0 +1,156 @@
+//! Held-out prediction errors: each experiment predicted by the model
+//! refitted without it.
+//!
+//! # Method
+//! For a fit on all experiments (coordinates u, residuals r, Jacobian J),
+//! leaving experiment k out changes the parameters by the Gauss–Newton step
+//! on the other experiments' rows, δ = −(J₋ₖᵀJ₋ₖ)⁻¹·J₋ₖᵀr₋ₖ (solved by SVD,
+//! so that a parameter only experiment k determines keeps its value), kept
+//! within the bounds. Experiment k is then *simulated* with u + δ: the
+//! prediction itself is nonlinear, only the refit is linearised (exact for a
+//! model linear in its parameters, and close when dropping one experiment
+//! of several moves the parameters little). Its sensor offsets (and gains)
+//! are eliminated from its own data as in the fit — they belong to the
+//! logger of that run, which no other experiment can tell.
+//!
+//! The result is kept per block (experiment × channel) so that the
+//! selection can weigh the gain of an effect against what remains.
+//! Cost: one simulation per experiment.
+
+use crate::fit::Fit;
+use crate::problem::Problem;
+use nalgebra::{DMatrix, DVector};
+use rayon::prelude::*;
+use serde::Serialize;
+
+/// Held-out χ² of one channel of one experiment.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct HeldBlock {
+    pub experiment: usize,
+    pub channel: usize,
+    /// Σ of squared normalised prediction errors.
+    pub chi2: f64,
+    pub n: usize,
+}
+
+/// Held-out errors of a model.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct HeldOut {
+    pub blocks: Vec<HeldBlock>,
+    /// Simulations run.
+    pub evaluations: usize,
+}
+
+impl HeldOut {
+    /// Σχ² over every block.
+    pub fn chi2(&self) -> f64 {
+        self.blocks.iter().map(|b| b.chi2).sum()
+    }
+    /// Number of held-out residuals.
+    pub fn n(&self) -> usize {
+        self.blocks.iter().map(|b| b.n).sum()
+    }
+    /// Mean square of the normalised prediction errors (1 = noise level).
+    pub fn mean_square(&self) -> f64 {
+        self.chi2() / self.n().max(1) as f64
+    }
+    /// Normalised RMSE.
+    pub fn rmse(&self) -> f64 {
+        self.mean_square().sqrt()
+    }
+}
+
+/// The Gauss–Newton step that refits on the rows outside `held`.
+fn refit_step(f: &Fit, held: &std::ops::Range<usize>) -> DVector<f64> {
+    let p = f.u.len();
+    let m = f.residuals.len();
+    let keep: Vec<usize> = (0..m).filter(|i| !held.contains(i)).collect();
+    let j = DMatrix::from_fn(keep.len(), p, |a, b| f.jacobian[(keep[a], b)]);
+    let r = DVector::from_fn(keep.len(), |a, _| f.residuals[keep[a]]);
+    let a = j.transpose() * &j;
+    let g = j.transpose() * r;
+    let tol = a.diagonal().iter().fold(0.0_f64, |x, v| x.max(v.abs())) * 1e-12;
+    a.svd(true, true).solve(&(-g), tol).unwrap_or_else(|_| DVector::zeros(p))
+}
+
+/// Leave-one-experiment-out prediction errors of a fit of `problem` (see
+/// the module header). With a single experiment (or no parameters) these
+/// are the fit's own residuals.
+pub fn leave_one_out(problem: &Problem, f: &Fit) -> Result<HeldOut, String> {
+    let blocks = problem.blocks();
+    let in_sample = || HeldOut {
+        blocks: blocks
+            .iter()
+            .map(|b| HeldBlock {
+                experiment: b.experiment,
+                channel: b.channel,
+                chi2: f.residuals[b.rows.clone()].iter().map(|x| x * x).sum(),
+                n: b.rows.len(),
+            })
+            .collect(),
+        evaluations: 0,
+    };
+    let layout = problem.layout();
+    if layout.len() < 2 || f.u.is_empty() {
+        return Ok(in_sample());
+    }
+    let lo: Vec<f64> = problem.params.iter().map(|p| p.to_u(p.lo)).collect();
+    let hi: Vec<f64> = problem.params.iter().map(|p| p.to_u(p.hi)).collect();
+    let folds: Vec<Result<Vec<HeldBlock>, String>> = layout
+        .par_iter()
+        .map(|(k, rows)| {
+            let delta = refit_step(f, rows);
+            let u: Vec<f64> = (0..f.u.len()).map(|i| (f.u[i] + delta[i]).clamp(lo[i], hi[i])).collect();
+            let values = problem.values_of(&u);
+            let result = problem.simulate(*k, &values, problem.intervals[*k])?;
+            let (r, _) = problem.residuals_from(*k, &result)?;
+            let mut at = 0;
+            let mut out = Vec::new();
+            for b in blocks.iter().filter(|b| b.experiment == *k) {
+                let n = b.rows.len();
+                out.push(HeldBlock { experiment: *k, channel: b.channel, chi2: r[at..at + n].iter().map(|x| x * x).sum(), n });
+                at += n;
+            }
+            Ok(out)
+        })
+        .collect();
+    let mut out = Vec::new();
+    for fold in folds {
+        out.extend(fold?);
+    }
+    Ok(HeldOut { blocks: out, evaluations: layout.len() })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::stats::BlockStats;
+
+    #[test]
+    fn the_refit_step_is_exact_for_a_linear_model() {
+        // r(u) = a·x − y, two "experiments" of 3 rows: refitting without the
+        // first moves a to the least-squares value of the second alone.
+        let xs = [1.0, 2.0, 3.0, 1.0, 2.0, 3.0];
+        let ys = [1.1, 2.0, 3.1, 2.0, 4.1, 5.9];
+        let a_full: f64 = xs.iter().zip(&ys).map(|(x, y)| x * y).sum::<f64>() / xs.iter().map(|x| x * x).sum::<f64>();
+        let residuals: Vec<f64> = xs.iter().zip(&ys).map(|(x, y)| a_full * x - y).collect();
+        let f = Fit {
+            u: vec![a_full],
+            values: vec![a_full],
+            std_u: None,
+            cov_u: None,
+            stats: BlockStats { chi2: vec![], n: vec![], tau: vec![] },
+            residuals,
+            jacobian: DMatrix::from_fn(6, 1, |i, _| xs[i]),
+            chi2: 0.0,
+            at_bound: vec![false],
+            converged: true,
+            evaluations: 0,
+            iterations: 0,
+            message: String::new(),
+        };
+        let a_second: f64 = (3..6).map(|i| xs[i] * ys[i]).sum::<f64>() / (3..6).map(|i| xs[i] * xs[i]).sum::<f64>();
+        let d = refit_step(&f, &(0..3));
+        assert!((a_full + d[0] - a_second).abs() < 1e-12);
+    }
+}

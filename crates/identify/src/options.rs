@@ -1,0 +1,127 @@
+//! Settings of the discrepancy workflow: how fits are run, which sensor
+//! errors are eliminated, the acceptance thresholds, and a progress sink.
+//! Plain data read by every stage; filled from a manifest
+//! ([`crate::manifest`]) or by a caller.
+
+use crate::fit::FitOptions;
+use crate::nuisance::SensorModel;
+use crate::problem::SimSettings;
+use serde::Serialize;
+use std::sync::Arc;
+
+/// Acceptance thresholds of the selection ([`crate::selection`]); the
+/// docs (docs/discrepancy.md, "Thresholds") say how they were set.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct Thresholds {
+    /// Required decrease of the information criterion on effective sample sizes.
+    pub ic: f64,
+    /// Required distance of a parameter from its null, in (correlation-aware) standard errors.
+    pub z_null: f64,
+    /// Distance from a non-null bound, as a fraction of the fitted range,
+    /// below which an effect parameter counts as at the bound.
+    pub bound_margin: f64,
+    /// Required relative decrease of the held-out mean square.
+    pub heldout_gain: f64,
+    /// The model-form floor test: the held-out gain (in units of the noise
+    /// variance) must be at least this multiple of the held-out remainder
+    /// above the noise that the model with the effect still leaves.
+    pub floor_ratio: f64,
+    /// Smallest remainder counted in the floor test (noise variances):
+    /// below it the noise level itself is not known better.
+    pub floor_min: f64,
+    /// Two candidates are ambiguous when the runner-up's held-out gain is
+    /// within this fraction of the winner's.
+    pub ambiguity: f64,
+    /// A channel whose normalised RMSE after the search is above this has an
+    /// unexplained remainder, reported with the phase that holds most of it.
+    pub remainder_rmse: f64,
+}
+
+impl Default for Thresholds {
+    fn default() -> Self {
+        Thresholds {
+            ic: 10.0,
+            z_null: 3.0,
+            bound_margin: 0.005,
+            heldout_gain: 0.05,
+            floor_ratio: 2.0,
+            floor_min: 0.05,
+            ambiguity: 0.1,
+            remainder_rmse: 1.5,
+        }
+    }
+}
+
+/// Where progress messages go (the library prints nothing itself).
+#[derive(Clone, Default)]
+pub struct Progress(Option<Sink>);
+
+/// A progress message receiver.
+type Sink = Arc<dyn Fn(&str) + Send + Sync>;
+
+impl Progress {
+    /// Messages to `f`.
+    pub fn to(f: impl Fn(&str) + Send + Sync + 'static) -> Self {
+        Progress(Some(Arc::new(f)))
+    }
+    /// Send one message.
+    pub fn say(&self, message: &str) {
+        if let Some(f) = &self.0 {
+            f(message);
+        }
+    }
+}
+
+impl std::fmt::Debug for Progress {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(if self.0.is_some() { "Progress(sink)" } else { "Progress(none)" })
+    }
+}
+
+/// Options of the workflow.
+#[derive(Debug, Clone)]
+pub struct Options {
+    /// Spacing of the samples compared in the fits [s].
+    pub fit_interval: f64,
+    pub sim: SimSettings,
+    pub fit: FitOptions,
+    /// Sensor errors fitted as nuisance parameters.
+    pub sensors: SensorModel,
+    pub thresholds: Thresholds,
+    /// At most this many effects are added.
+    pub max_effects: usize,
+    /// Restrict the catalogue to these names.
+    pub effects: Option<Vec<String>>,
+    /// Compute full-resolution traces and diagnostics.
+    pub report: bool,
+    /// Step attempts of a candidate's short-record (screening) stages.
+    pub screen_iter: usize,
+    /// Starting points tried for effects with shape parameters (best of the scan grid).
+    pub starts: usize,
+    /// A candidate gets its full-record fit only if its short-record ΔIC is
+    /// at least this fraction of the best candidate's (both negative) …
+    pub screen_relative: f64,
+    /// … and only the best `screen_keep` candidates of a round do.
+    pub screen_keep: usize,
+    pub progress: Progress,
+}
+
+impl Default for Options {
+    fn default() -> Self {
+        Options {
+            fit_interval: 4e-3,
+            sim: SimSettings::default(),
+            fit: FitOptions::default(),
+            sensors: SensorModel::default(),
+            thresholds: Thresholds::default(),
+            max_effects: 2,
+            effects: None,
+            report: true,
+            screen_iter: 8,
+            starts: 2,
+            screen_relative: 0.2,
+            screen_keep: 3,
+            progress: Progress::default(),
+        }
+    }
+}

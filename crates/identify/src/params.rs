@@ -1,0 +1,271 @@
+//! Fitted parameters: what each acts on, its bounds and its scaled fit
+//! coordinate; the default calibration set of a cylinder circuit; one
+//! parameter per distinct setting of a calibrated value; the parameters an
+//! effect adds.
+//!
+//! # Fit coordinates
+//! Each parameter is fitted in a scaled coordinate u so that all are O(1):
+//! linear u = θ/θ_typ, or logarithmic u = ln(θ/θ_typ) for strictly positive
+//! quantities known only to a factor (conductances, friction levels).
+//! Calibration parameters that the experiments set to different values
+//! (e.g. one throttle setting per experiment) are fitted once per distinct
+//! setting, each applying to the experiments with that setting.
+//!
+//! Units: values and bounds SI; `unit` is only the unit shown to people.
+
+use crate::effects::{Effect, Scale};
+use crate::experiment::Experiment;
+use crate::netlist_edit::{param_si, parse_for, split_target};
+use graph::FlatNetlist;
+
+/// What a fitted parameter acts on.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Target {
+    /// A netlist parameter "id.param", for the listed experiments (all if `None`).
+    Netlist { id: String, param: String, experiments: Option<Vec<usize>> },
+    /// Parameter `k` of effect slot `slot` of the problem.
+    Effect { slot: usize, k: usize },
+}
+
+/// A fitted parameter.
+#[derive(Debug, Clone, PartialEq)]
+pub struct FitParam {
+    /// "friction.k0", "flow_control.C@13.2 L/min/bar", "piston_seal_leak.C".
+    pub name: String,
+    /// Unit shown to people; values are SI.
+    pub unit: String,
+    pub lo: f64,
+    pub hi: f64,
+    /// Starting value [SI].
+    pub start: f64,
+    /// Scale of the fit coordinate [SI].
+    pub typical: f64,
+    pub scale: Scale,
+    /// Null value of an effect parameter.
+    pub null: Option<f64>,
+    pub target: Target,
+}
+
+impl FitParam {
+    /// Fit coordinate of an SI value.
+    pub fn to_u(&self, v: f64) -> f64 {
+        match self.scale {
+            Scale::Linear => v / self.typical,
+            Scale::Log => (v / self.typical).ln(),
+        }
+    }
+    /// SI value of a fit coordinate.
+    pub fn from_u(&self, u: f64) -> f64 {
+        match self.scale {
+            Scale::Linear => u * self.typical,
+            Scale::Log => self.typical * u.exp(),
+        }
+    }
+    /// Whether this is an effect parameter.
+    pub fn is_effect(&self) -> bool {
+        matches!(self.target, Target::Effect { .. })
+    }
+}
+
+/// A calibration target with optional bounds (SI).
+#[derive(Debug, Clone, PartialEq)]
+pub struct CalibSpec {
+    pub target: String,
+    pub bounds: Option<(f64, f64)>,
+}
+
+/// The default calibration set of a cylinder circuit: Coulomb and viscous
+/// friction at zero pressure (k0, k2), every throttle's C and the
+/// directional valve's C (see docs/discrepancy.md for the reasons).
+/// Parameters that are zero in the netlist are skipped (no scale to fit on).
+pub fn default_calibration(flat: &FlatNetlist) -> Vec<CalibSpec> {
+    let topo = crate::netlist_edit::Topology::of(flat);
+    let mut targets = Vec::new();
+    if let Some(f) = &topo.friction {
+        targets.push(format!("{f}.k0"));
+        targets.push(format!("{f}.k2"));
+    }
+    for t in &topo.throttles {
+        targets.push(format!("{t}.C"));
+    }
+    if let Some(v) = &topo.valve {
+        targets.push(format!("{v}.C"));
+    }
+    targets
+        .into_iter()
+        .filter(|t| split_target(t).ok().and_then(|(id, p)| param_si(flat, id, p).ok()).is_some_and(|v| v > 0.0))
+        .map(|target| CalibSpec { target, bounds: None })
+        .collect()
+}
+
+/// Turn calibration targets into fit parameters, one per distinct setting
+/// among the experiments.
+pub fn calibration_params(flat: &FlatNetlist, experiments: &[Experiment], specs: &[CalibSpec]) -> Result<Vec<FitParam>, String> {
+    let mut out = Vec::new();
+    for spec in specs {
+        let (id, param) = split_target(&spec.target).map_err(|e| e.to_string())?;
+        let base = param_si(flat, id, param).map_err(|e| format!("calibrate {}: {e}", spec.target))?;
+        let unit = crate::netlist_edit::spec_of(flat, id, param).map_err(|e| e.to_string())?.display_unit.to_string();
+        // nominal value of each experiment, grouped
+        let mut groups: Vec<(f64, String, Vec<usize>)> = Vec::new();
+        for (k, e) in experiments.iter().enumerate() {
+            let mut v = base;
+            let mut label = String::new();
+            for s in &e.sets {
+                if let Some((t, val)) = s.split_once('=') {
+                    if t.trim() == spec.target {
+                        v = parse_for(flat, id, param, &graph::expand::value_from_text(val)).map_err(|e| e.to_string())?;
+                        label = val.trim().to_string();
+                    }
+                }
+            }
+            match groups.iter_mut().find(|g| g.0 == v) {
+                Some(g) => g.2.push(k),
+                None => groups.push((v, label, vec![k])),
+            }
+        }
+        let single = groups.len() == 1;
+        for (v, label, members) in groups {
+            let (lo, hi) = match spec.bounds {
+                Some(b) => b,
+                None if v > 0.0 => (v / 3.0, v * 3.0),
+                None => return Err(format!("calibrate {}: the value is {v}; give bounds [lo, hi]", spec.target)),
+            };
+            if lo >= hi || !lo.is_finite() || !hi.is_finite() {
+                return Err(format!("calibrate {}: bounds [{lo}, {hi}] are not an interval", spec.target));
+            }
+            let start = v.clamp(lo, hi);
+            let (scale, typical) = if lo > 0.0 { (Scale::Log, start) } else { (Scale::Linear, start.abs().max((hi - lo) / 10.0)) };
+            let name = if single {
+                spec.target.clone()
+            } else if label.is_empty() {
+                format!("{}@netlist value", spec.target)
+            } else if label.parse::<f64>().is_ok() {
+                // a plain SI number: show it in the parameter's display unit
+                match units::to_unit(v, &unit) {
+                    Ok(x) if !unit.is_empty() => format!("{}@{} {unit}", spec.target, significant(x, 4)),
+                    _ => format!("{}@{}", spec.target, significant(v, 4)),
+                }
+            } else {
+                format!("{}@{label}", spec.target)
+            };
+            out.push(FitParam {
+                name,
+                unit: unit.clone(),
+                lo,
+                hi,
+                start,
+                typical,
+                scale,
+                null: None,
+                target: Target::Netlist {
+                    id: id.to_string(),
+                    param: param.to_string(),
+                    experiments: if single { None } else { Some(members) },
+                },
+            });
+        }
+    }
+    Ok(out)
+}
+
+/// `x` with `digits` significant digits, without trailing zeros.
+pub fn significant(x: f64, digits: usize) -> String {
+    if x == 0.0 || !x.is_finite() {
+        return format!("{x}");
+    }
+    let magnitude = x.abs().log10().floor() as i32;
+    let decimals = (digits as i32 - 1 - magnitude).max(0) as usize;
+    let s = format!("{x:.decimals$}");
+    if s.contains('.') {
+        s.trim_end_matches('0').trim_end_matches('.').to_string()
+    } else {
+        s
+    }
+}
+
+/// Fit parameters of an effect placed in slot `slot`.
+pub fn effect_params(effect: &dyn Effect, slot: usize) -> Vec<FitParam> {
+    effect
+        .params()
+        .into_iter()
+        .enumerate()
+        .map(|(k, p)| FitParam {
+            name: format!("{}.{}", effect.name(), p.name),
+            unit: p.unit.to_string(),
+            lo: p.lo,
+            hi: p.hi,
+            start: p.start,
+            typical: p.typical,
+            scale: p.scale,
+            null: p.null,
+            target: Target::Effect { slot, k },
+        })
+        .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::data::Dataset;
+    use crate::netlist_edit::tests_support::meter_out;
+
+    fn dataset(names: &[&str], n: usize) -> Dataset {
+        Dataset {
+            origin: "mem".into(),
+            times: (0..n).map(|i| 5.0 + i as f64 * 1e-3).collect(),
+            names: names.iter().map(|s| s.to_string()).collect(),
+            values: names.iter().map(|_| (0..n).map(|i| Some((i % 7) as f64)).collect()).collect(),
+            lines: vec![],
+        }
+    }
+
+    #[test]
+    fn calibration_groups_per_distinct_setting() {
+        let flat = meter_out();
+        let d = dataset(&["head.p"], 20);
+        let mk = |c: &str| {
+            Experiment::from_dataset("e", &d, None, vec![format!("flow_control.C={c}"), "supply.p=4 bar".into()], None, &[]).unwrap()
+        };
+        let exps = vec![mk("13.2 L/min/bar"), mk("26 L/min/bar"), mk("13.2 L/min/bar")];
+        let specs = vec![
+            CalibSpec { target: "flow_control.C".into(), bounds: None },
+            CalibSpec { target: "friction.k0".into(), bounds: Some((1.0, 60.0)) },
+        ];
+        let ps = calibration_params(&flat, &exps, &specs).unwrap();
+        assert_eq!(ps.len(), 3);
+        assert_eq!(ps[0].name, "flow_control.C@13.2 L/min/bar");
+        assert_eq!(ps[0].target, Target::Netlist { id: "flow_control".into(), param: "C".into(), experiments: Some(vec![0, 2]) });
+        assert!((ps[1].start - 26e-3 / 60.0 / 1e5).abs() < 1e-20);
+        assert_eq!((ps[2].name.as_str(), ps[2].lo, ps[2].hi, ps[2].start), ("friction.k0", 1.0, 60.0, 10.0));
+        // log coordinate round trip, and linear for a bound at zero
+        let p = &ps[2];
+        assert!((p.from_u(p.to_u(33.0)) - 33.0).abs() < 1e-12);
+        let specs = vec![CalibSpec { target: "friction.k0".into(), bounds: Some((0.0, 60.0)) }];
+        let q = &calibration_params(&flat, &exps, &specs).unwrap()[0];
+        assert_eq!(q.scale, Scale::Linear);
+        assert!((q.from_u(q.to_u(12.0)) - 12.0).abs() < 1e-12);
+    }
+
+    #[test]
+    fn significant_digits() {
+        assert_eq!(significant(29.87654, 4), "29.88");
+        assert_eq!(significant(0.000123456, 3), "0.000123");
+        assert_eq!(significant(1500.0, 3), "1500");
+        assert_eq!(significant(13.2, 4), "13.2");
+        // a group named by an SI number is shown in the display unit
+        let flat = meter_out();
+        let d = dataset(&["head.p"], 20);
+        let e = Experiment::from_dataset("e", &d, None, vec!["flow_control.C=4.4e-9".into()], None, &[]).unwrap();
+        let f = Experiment::from_dataset("f", &d, None, vec!["flow_control.C=13.2 L/min/bar".into()], None, &[]).unwrap();
+        let ps = calibration_params(&flat, &[e, f], &[CalibSpec { target: "flow_control.C".into(), bounds: None }]).unwrap();
+        assert_eq!(ps[0].name, "flow_control.C@26.4 L/min/bar");
+        assert_eq!(ps[1].name, "flow_control.C@13.2 L/min/bar");
+    }
+
+    #[test]
+    fn default_calibration_of_meter_out() {
+        let names: Vec<String> = default_calibration(&meter_out()).into_iter().map(|c| c.target).collect();
+        assert_eq!(names, vec!["friction.k0", "friction.k2", "flow_control.C", "dcv.C"]);
+    }
+}

@@ -1,0 +1,419 @@
+//! The report of a search: full-resolution traces of a fitted model (the
+//! sensor errors applied), its diagnosis, parameter and sensor estimates
+//! with intervals, the unexplained remainder, the verdict, and the netlist
+//! with the fitted values written in. No fitting happens here; the only
+//! simulations are the full-resolution runs of the models reported.
+//!
+//! # Traces
+//! Each experiment is simulated at its own sampling interval; the trace's
+//! "simulated" channel is what the sensor would read, o + (1 + g)·ŷ, with o
+//! and g profiled on every sample ([`crate::nuisance`]), so its residuals
+//! are those the fit minimised, at full resolution.
+//!
+//! # Remainder
+//! A channel whose normalised RMSE is above `remainder_rmse` still holds
+//! something the model does not explain. It is reported with the phase of
+//! the cycle ([`crate::phases`]) holding the largest part of its excess
+//! Σ(z² − 1): "unexplained remainder in piston.x during steady".
+
+use crate::candidates::{estimates, problem_for, Candidate, Estimate, Structure};
+use crate::diagnose::{diagnose, Diagnosis, Trace};
+use crate::experiment::Experiment;
+use crate::netlist_edit::{param_si, Topology};
+use crate::nuisance::{standard_errors, SensorModel};
+use crate::options::{Options, Thresholds};
+use crate::params::Target;
+use crate::phases::{classify, Phase};
+use crate::problem::{channel_residuals, column_at, sample_channels, SimSettings};
+use crate::selection::Selected;
+use crate::stats::{information_criterion, integrated_time};
+use graph::FlatNetlist;
+use rayon::prelude::*;
+use serde::Serialize;
+use std::collections::BTreeMap;
+
+/// A fitted sensor error of one channel of one experiment.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct SensorEstimate {
+    pub experiment: String,
+    pub signal: String,
+    /// Offset [SI] and its 95 % interval.
+    pub offset: f64,
+    pub offset_ci95: Option<(f64, f64)>,
+    /// Relative gain error and its 95 % interval (0 and `None` when not fitted).
+    pub gain: f64,
+    pub gain_ci95: Option<(f64, f64)>,
+}
+
+/// Correlation of one channel's residuals (pooled over experiments).
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct ChannelCorrelation {
+    /// Integrated autocorrelation time at the fitted samples (1 = white).
+    pub tau: f64,
+    /// Samples fitted and their effective number.
+    pub n: usize,
+    pub n_eff: f64,
+}
+
+/// A model (baseline or augmented) after fitting.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct ModelSummary {
+    pub effects: Vec<String>,
+    pub params: Vec<Estimate>,
+    /// Sensor offsets (and gains) per experiment and channel.
+    pub sensors: Vec<SensorEstimate>,
+    /// Σ(r/σ)² over the fitted samples.
+    pub chi2: f64,
+    /// Number of fitted residuals and their effective number.
+    pub n: usize,
+    pub n_eff: f64,
+    /// Schwarz's criterion on effective sample sizes ([`crate::stats::information_criterion`]).
+    pub ic: f64,
+    /// Per channel: residual correlation at the fitted samples.
+    pub correlation: BTreeMap<String, ChannelCorrelation>,
+    /// Leave-one-experiment-out normalised RMSE (NaN when not computed).
+    pub heldout_rmse: f64,
+    /// RMSE per channel at full resolution [SI].
+    pub rmse: BTreeMap<String, f64>,
+    /// Normalised RMSE per channel (1 = noise level).
+    pub rmse_normalized: BTreeMap<String, f64>,
+    pub diagnosis: Diagnosis,
+    /// Whether the least-squares fit met a convergence test, and which.
+    pub converged: bool,
+    pub fit_message: String,
+    pub fit_evaluations: usize,
+}
+
+/// What a channel still holds after the search.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Remainder {
+    pub channel: String,
+    /// Normalised RMSE of the channel.
+    pub rmse_normalized: f64,
+    /// The phase holding most of the channel's excess, its normalised RMSE
+    /// there and its share of the excess.
+    pub phase: Phase,
+    pub phase_rmse_normalized: f64,
+    pub share: f64,
+}
+
+impl Remainder {
+    /// "unexplained remainder in piston.x during steady (normalised RMSE 3.1, 80 % of its excess)".
+    pub fn sentence(&self) -> String {
+        format!(
+            "unexplained remainder in {} during {} (normalised RMSE {:.2} there, {:.0} % of the channel's excess; {:.2} overall)",
+            self.channel,
+            self.phase.name(),
+            self.phase_rmse_normalized,
+            100.0 * self.share,
+            self.rmse_normalized
+        )
+    }
+}
+
+/// The workflow's result in numbers (the `--json` output).
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Summary {
+    pub baseline: ModelSummary,
+    pub candidates: Vec<Candidate>,
+    /// The effects named, in the order they were added.
+    pub selected: Vec<Selected>,
+    pub verdict: String,
+    /// Names when the last round was ambiguous.
+    pub ambiguous: Vec<String>,
+    /// Effects the backward check removed, with the reason.
+    pub dropped: Vec<(String, String)>,
+    /// Channels the final model does not explain.
+    pub remainder: Vec<Remainder>,
+    pub after: ModelSummary,
+    pub thresholds: Thresholds,
+    /// Sensor errors fitted as nuisance parameters.
+    pub sensor_model: SensorModel,
+    /// Noise level used per experiment and channel [SI].
+    pub noise: BTreeMap<String, BTreeMap<String, f64>>,
+    /// Simulations of all experiments run by the fits.
+    pub evaluations: usize,
+    /// Wall time of the whole workflow and of its steps [s].
+    pub seconds: f64,
+    pub timing: BTreeMap<String, f64>,
+}
+
+/// Everything the workflow produced.
+#[derive(Debug, Clone)]
+pub struct Outcome {
+    pub summary: Summary,
+    /// The baseline netlist with the calibrated values written in.
+    pub baseline_netlist: FlatNetlist,
+    /// (label, netlist): the final model, and each ambiguous alternative.
+    pub augmented: Vec<(String, FlatNetlist)>,
+    /// Full-resolution traces of the calibrated baseline and of the final model.
+    pub before: Vec<Trace>,
+    pub after: Vec<Trace>,
+}
+
+/// Regressors for the residual correlations, from a simulation sampled at the data times.
+fn regressors(result: &solve::SimResult, e: &Experiment, topo: &Topology) -> Vec<(String, Vec<f64>)> {
+    let all: Vec<usize> = (0..e.times.len()).collect();
+    let col =
+        |name: &str| -> Option<Vec<f64>> { column_at(result, name, e, &all).map(|v| v.into_iter().map(|x| x.unwrap_or(0.0)).collect()) };
+    let mut out = Vec::new();
+    let rate = |v: &[f64]| -> Vec<f64> {
+        (0..v.len())
+            .map(|i| {
+                let (a, b) = (i.saturating_sub(1), (i + 1).min(v.len() - 1));
+                let dt = e.times[b] - e.times[a];
+                if dt > 0.0 {
+                    (v[b] - v[a]) / dt
+                } else {
+                    0.0
+                }
+            })
+            .collect()
+    };
+    if let (Some(h), Some(r)) = (&topo.head, &topo.rod) {
+        if let (Some(p1), Some(p2)) = (col(&format!("{h}.p")), col(&format!("{r}.p"))) {
+            out.push(("p_head - p_rod".to_string(), p1.iter().zip(&p2).map(|(a, b)| a - b).collect()));
+            out.push(("dp_head/dt".to_string(), rate(&p1)));
+            out.push(("dp_rod/dt".to_string(), rate(&p2)));
+        }
+        if let Some(t1) = col(&format!("{h}.T")) {
+            let t0 = t1.first().copied().unwrap_or(0.0);
+            out.push(("T_head - T_initial".to_string(), t1.iter().map(|t| t - t0).collect()));
+        }
+    }
+    if let Some(p) = &topo.piston {
+        if let Some(v) = col(&format!("{p}.v")) {
+            out.push(("low speed exp(-(v/20 mm/s)^2)".to_string(), v.iter().map(|v| (-(v / 0.02).powi(2)).exp()).collect()));
+            out.push(("velocity".to_string(), v));
+        }
+    }
+    if let Some(c) = topo.command.as_deref().and_then(col) {
+        let mut last = f64::NEG_INFINITY;
+        let mut since = Vec::with_capacity(c.len());
+        for i in 0..c.len() {
+            if i > 0 && (c[i] >= 0.5) != (c[i - 1] >= 0.5) {
+                last = e.times[i];
+            }
+            since.push((-(e.times[i] - last) / 0.05).exp());
+        }
+        out.push(("recent switch exp(-dt/50 ms)".to_string(), since));
+    }
+    out
+}
+
+/// One experiment's full-resolution trace and sensor estimates.
+fn trace_of(
+    s: &Structure,
+    problem: &crate::problem::Problem,
+    k: usize,
+    phases: Option<&[Vec<Phase>]>,
+    topo: &Topology,
+    stroke: f64,
+    sensors: &SensorModel,
+) -> Result<(Trace, Vec<SensorEstimate>), String> {
+    let e = &problem.experiments[k];
+    let result = problem.simulate(k, &s.fit.values, e.median_interval())?;
+    let all: Vec<usize> = (0..e.times.len()).collect();
+    let raw = sample_channels(&result, e, &all)?;
+    let mut simulated = Vec::new();
+    let mut est = Vec::new();
+    for (ch, sim) in e.channels.iter().zip(&raw) {
+        let (r, fit) = channel_residuals(&ch.values, &all, sim, ch.sigma, sensors);
+        let ms = r.iter().map(|x| x * x).sum::<f64>() / r.len().max(1) as f64;
+        let tau = integrated_time(&r);
+        let paired: Vec<f64> = all.iter().filter(|&&i| ch.values[i].is_some()).filter_map(|&i| sim[i]).collect();
+        let (se_o, se_g) = standard_errors(&paired, ch.sigma, ms, tau, sensors);
+        let ci = |v: f64, se: Option<f64>| se.map(|s| (v - 1.96 * s, v + 1.96 * s));
+        est.push(SensorEstimate {
+            experiment: e.name.clone(),
+            signal: ch.signal.clone(),
+            offset: fit.offset,
+            offset_ci95: ci(fit.offset, se_o),
+            gain: fit.gain,
+            gain_ci95: ci(fit.gain, se_g),
+        });
+        simulated.push(sim.iter().map(|v| v.map(|y| fit.offset + (1.0 + fit.gain) * y)).collect());
+    }
+    let ph = match phases {
+        Some(p) => p[k].clone(),
+        None => {
+            let get = |name: Option<String>| -> Vec<f64> {
+                name.and_then(|n| column_at(&result, &n, e, &all))
+                    .map(|v| v.into_iter().map(|x| x.unwrap_or(0.0)).collect())
+                    .unwrap_or_else(|| vec![0.0; e.times.len()])
+            };
+            let cmd = get(topo.command.clone());
+            let x = get(topo.piston.as_ref().map(|p| format!("{p}.x")));
+            classify(&e.times, &cmd, &x, stroke)
+        }
+    };
+    let trace = Trace {
+        name: e.name.clone(),
+        times: e.times.clone(),
+        signals: e.channels.iter().map(|c| c.signal.clone()).collect(),
+        sigma: e.channels.iter().map(|c| c.sigma).collect(),
+        measured: e.channels.iter().map(|c| c.values.clone()).collect(),
+        simulated,
+        phases: ph,
+        regressors: regressors(&result, e, topo),
+    };
+    Ok((trace, est))
+}
+
+/// Full-resolution traces and statistics of a fitted structure. `phases`
+/// reuses the phases of an earlier summary (so that before and after are
+/// compared on the same samples).
+pub fn summarize(
+    base: &FlatNetlist,
+    experiments: &[Experiment],
+    s: &Structure,
+    phases: Option<&[Vec<Phase>]>,
+    opts: &Options,
+) -> Result<(Vec<Trace>, ModelSummary), String> {
+    let problem = problem_for(base, experiments, s.effects.clone(), s.params.clone(), opts);
+    let topo = Topology::of(base);
+    let stroke = topo.piston.as_deref().and_then(|p| param_si(base, p, "stroke").ok()).unwrap_or(1.0);
+    let (traces, sensors): (Vec<Trace>, Vec<Vec<SensorEstimate>>) = if opts.report {
+        (0..experiments.len())
+            .into_par_iter()
+            .map(|k| trace_of(s, &problem, k, phases, &topo, stroke, &opts.sensors))
+            .collect::<Result<Vec<_>, String>>()?
+            .into_iter()
+            .unzip()
+    } else {
+        (Vec::new(), Vec::new())
+    };
+    let diagnosis = diagnose(&traces);
+    let st = &s.fit.stats;
+    let mut correlation: BTreeMap<String, ChannelCorrelation> = BTreeMap::new();
+    for (b, block) in problem.blocks().iter().enumerate() {
+        let name = experiments[block.experiment].channels[block.channel].signal.clone();
+        let entry = correlation.entry(name).or_insert(ChannelCorrelation { tau: 0.0, n: 0, n_eff: 0.0 });
+        if let (Some(&n), Some(&t)) = (st.n.get(b), st.tau.get(b)) {
+            entry.n += n;
+            entry.n_eff += n as f64 / t;
+        }
+    }
+    for c in correlation.values_mut() {
+        c.tau = if c.n_eff > 0.0 { c.n as f64 / c.n_eff } else { f64::NAN };
+    }
+    let summary = ModelSummary {
+        effects: s.names(),
+        params: estimates(&s.params, &s.fit),
+        sensors: sensors.into_iter().flatten().collect(),
+        chi2: s.fit.chi2,
+        n: s.fit.residuals.len(),
+        n_eff: st.n_eff_total(),
+        ic: information_criterion(st, s.params.len()),
+        correlation,
+        heldout_rmse: s.heldout.as_ref().map_or(f64::NAN, |h| h.rmse()),
+        rmse: diagnosis.channels.iter().map(|(k, v)| (k.clone(), v.rmse)).collect(),
+        rmse_normalized: diagnosis.channels.iter().map(|(k, v)| (k.clone(), v.rmse_normalized)).collect(),
+        diagnosis,
+        converged: s.fit.converged,
+        fit_message: s.fit.message.clone(),
+        fit_evaluations: s.fit.evaluations,
+    };
+    Ok((traces, summary))
+}
+
+/// Channels above `remainder_rmse`, each with the phase holding most of its excess.
+pub fn remainders(m: &ModelSummary, th: &Thresholds) -> Vec<Remainder> {
+    let mut out = Vec::new();
+    for (ch, stats) in &m.diagnosis.channels {
+        if stats.rmse_normalized.is_nan() || stats.rmse_normalized <= th.remainder_rmse {
+            continue;
+        }
+        let excess = |p: &crate::diagnose::PhaseStats| p.n as f64 * (p.rmse_normalized * p.rmse_normalized - 1.0);
+        let phases: Vec<&crate::diagnose::PhaseStats> = m.diagnosis.phases.iter().filter(|p| &p.channel == ch).collect();
+        let total: f64 = phases.iter().map(|p| excess(p).max(0.0)).sum();
+        if let Some(p) = phases.iter().max_by(|a, b| excess(a).total_cmp(&excess(b))) {
+            out.push(Remainder {
+                channel: ch.clone(),
+                rmse_normalized: stats.rmse_normalized,
+                phase: p.phase,
+                phase_rmse_normalized: p.rmse_normalized,
+                share: if total > 0.0 { excess(p).max(0.0) / total } else { 0.0 },
+            });
+        }
+    }
+    out.sort_by(|a, b| b.rmse_normalized.total_cmp(&a.rmse_normalized));
+    out
+}
+
+/// The one-line verdict.
+pub fn verdict(selected: &[Selected], ambiguous: &[String], remainder: &[Remainder]) -> String {
+    let names = |s: &[Selected]| s.iter().map(|s| s.effect.as_str()).collect::<Vec<_>>().join(", then ");
+    let mut v = if !ambiguous.is_empty() {
+        let prefix = if selected.is_empty() {
+            String::new()
+        } else {
+            format!("missing effect{}: {}; then ", if selected.len() > 1 { "s" } else { "" }, names(selected))
+        };
+        format!("{prefix}ambiguous between {} and {}", ambiguous[0], ambiguous[1])
+    } else if selected.is_empty() {
+        "no missing effect found".to_string()
+    } else {
+        format!("missing effect{}: {}", if selected.len() > 1 { "s" } else { "" }, names(selected))
+    };
+    if let Some(r) = remainder.first() {
+        v += &format!("; {}", r.sentence());
+    }
+    v
+}
+
+/// The structure as one netlist: global calibrated values written in,
+/// effects applied with their fitted values (per-setting calibration values
+/// stay with the experiments and are listed in the report).
+pub fn written_netlist(base: &FlatNetlist, s: &Structure) -> Result<FlatNetlist, String> {
+    let keep: Vec<bool> = s.params.iter().map(|p| !matches!(&p.target, Target::Netlist { experiments: Some(_), .. })).collect();
+    let params: Vec<_> = s.params.iter().zip(&keep).filter(|(_, k)| **k).map(|(p, _)| p.clone()).collect();
+    let values: Vec<f64> = s.fit.values.iter().zip(&keep).filter(|(_, k)| **k).map(|(v, _)| *v).collect();
+    let probe = Experiment { name: "netlist".into(), sets: vec![], times: vec![0.0], channels: vec![], time_origin: 0.0 };
+    let exps = [probe];
+    let p = crate::problem::Problem::new(base, &exps, s.effects.clone(), params, SimSettings::default(), SensorModel::default(), 1.0);
+    p.netlist(0, &values)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::diagnose::{ChannelStats, PhaseStats};
+
+    #[test]
+    fn the_remainder_names_the_channel_and_phase_with_the_excess() {
+        let mut d = Diagnosis::default();
+        d.channels.insert("head.p".into(), ChannelStats { rmse: 500.0, rmse_normalized: 1.02, bias: 0.0, n: 1000 });
+        d.channels.insert("piston.x".into(), ChannelStats { rmse: 6e-5, rmse_normalized: 3.0, bias: 0.0, n: 1000 });
+        for (ph, r, n) in [(Phase::Steady, 4.0, 400), (Phase::Rest, 1.0, 500), (Phase::Switching, 2.0, 100)] {
+            d.phases.push(PhaseStats { phase: ph, channel: "piston.x".into(), rmse: 0.0, rmse_normalized: r, share: 0.0, n });
+        }
+        let m = ModelSummary {
+            effects: vec![],
+            params: vec![],
+            sensors: vec![],
+            chi2: 0.0,
+            n: 0,
+            n_eff: 0.0,
+            ic: 0.0,
+            correlation: BTreeMap::new(),
+            heldout_rmse: f64::NAN,
+            rmse: BTreeMap::new(),
+            rmse_normalized: BTreeMap::new(),
+            diagnosis: d,
+            converged: true,
+            fit_message: String::new(),
+            fit_evaluations: 0,
+        };
+        let r = remainders(&m, &Thresholds::default());
+        assert_eq!(r.len(), 1);
+        assert_eq!((r[0].channel.as_str(), r[0].phase), ("piston.x", Phase::Steady));
+        // excess: steady 400·15 = 6000, switching 100·3 = 300
+        assert!((r[0].share - 6000.0 / 6300.0).abs() < 1e-12);
+        let v = verdict(&[], &[], &r);
+        assert!(v.starts_with("no missing effect found; unexplained remainder in piston.x during steady"), "{v}");
+        let sel = vec![Selected { effect: "valve_delay".into(), params: BTreeMap::new() }];
+        assert_eq!(verdict(&sel, &[], &[]), "missing effect: valve_delay");
+        assert_eq!(verdict(&sel, &["a".into(), "b".into()], &[]), "missing effect: valve_delay; then ambiguous between a and b");
+    }
+}

@@ -1,0 +1,404 @@
+//! Selection: which candidate effects are named, by a greedy search over
+//! rounds followed by a backward check.
+//!
+//! # Tests of a candidate B against the current model A
+//! A candidate passes when all of these hold:
+//! 1. **parameters** ([`crate::candidates::finish`]): a parameter with a null
+//!    value lies more than `z_null` correlation-aware standard errors from it;
+//! 2. **information criterion**: ΔIC on effective sample sizes
+//!    ([`crate::stats::delta_ic`]) below −`ic`;
+//! 3. **held-out gain**: with held-out mean squares MS_A, MS_B of the
+//!    leave-one-experiment-out predictions ([`crate::heldout`], noise-
+//!    normalised, 1 = noise level), G = MS_A − MS_B is at least the fraction
+//!    `heldout_gain` of MS_A;
+//! 4. **model-form floor**: G is at least `floor_ratio` times what B still
+//!    leaves above the noise on held-out data, R = max(MS_B − 1, `floor_min`).
+//!    Any two honest implementations of the same machine differ by small
+//!    modelling choices that no catalogue effect describes; a candidate fitted
+//!    to such a difference removes a part of it and leaves a remainder of the
+//!    same order, while a real missing effect removes far more than what
+//!    remains.
+//!
+//! Among passing candidates the one with the lowest ΔIC is added, unless the
+//! runner-up's held-out gain is within `ambiguity` of the winner's: then the
+//! verdict is "ambiguous between A and B" and the search stops. A round
+//! screens candidates on the short records first (see
+//! [`crate::candidates`]): only those whose short-record ΔIC is below −`ic`
+//! and at least `screen_relative` of the best one's, and at most
+//! `screen_keep` of them, get a full fit. Later rounds retry only effects
+//! whose short-record ΔIC was negative in the previous round.
+//!
+//! # Backward check
+//! With two or more effects named, each is removed in turn from the final
+//! model (refitted without it) and kept only if the final model passes the
+//! held-out and floor tests (3, 4) against that reduced model. An effect
+//! named first that a later one made unnecessary is dropped.
+
+use crate::candidates::{finish, prepare, problem_for, screened, Candidate, Pass, Structure};
+use crate::effects::Effect;
+use crate::experiment::Experiment;
+use crate::fit::{fit_once, FitOptions};
+use crate::heldout::{leave_one_out, HeldOut};
+use crate::options::{Options, Thresholds};
+use crate::params::{FitParam, Target};
+use graph::FlatNetlist;
+use rayon::prelude::*;
+use serde::Serialize;
+use std::collections::BTreeMap;
+
+/// An effect added to the model.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Selected {
+    pub effect: String,
+    pub params: BTreeMap<String, f64>,
+}
+
+/// What the search concluded.
+pub struct Search<'a> {
+    /// The model with the named effects (the baseline when none).
+    pub model: Structure<'a>,
+    pub candidates: Vec<Candidate>,
+    pub selected: Vec<Selected>,
+    /// Names when the last round was ambiguous, and their models.
+    pub ambiguous: Vec<String>,
+    pub alternatives: Vec<Structure<'a>>,
+    /// Effects removed by the backward check, with the reason.
+    pub dropped: Vec<(String, String)>,
+    /// The baseline's held-out errors (when computed).
+    pub baseline_heldout: Option<HeldOut>,
+    pub evaluations: usize,
+    pub timing: BTreeMap<String, f64>,
+}
+
+/// Held-out comparison of a model B against a model A.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Comparison {
+    /// MS_A − MS_B [noise variances].
+    pub gain: f64,
+    /// max(MS_B − 1, floor_min).
+    pub remainder: f64,
+    /// gain / remainder.
+    pub ratio: f64,
+    /// gain / MS_A.
+    pub relative: f64,
+}
+
+/// Compare held-out errors (see the module header).
+pub fn compare(a: &HeldOut, b: &HeldOut, th: &Thresholds) -> Comparison {
+    let (ma, mb) = (a.mean_square(), b.mean_square());
+    let gain = ma - mb;
+    let remainder = (mb - 1.0).max(th.floor_min);
+    Comparison { gain, remainder, ratio: gain / remainder, relative: if ma > 0.0 { gain / ma } else { 0.0 } }
+}
+
+/// Why a comparison fails tests 3 and 4 (empty when it passes).
+pub fn heldout_reasons(c: &Comparison, th: &Thresholds) -> Vec<String> {
+    let mut out = Vec::new();
+    if c.relative.is_nan() || c.relative < th.heldout_gain {
+        out.push(format!("held-out mean square lowered by {:.1} % (needs {:.0} %)", 100.0 * c.relative, 100.0 * th.heldout_gain));
+    }
+    if c.ratio.is_nan() || c.ratio < th.floor_ratio {
+        out.push(format!(
+            "below the model-form floor: held-out gain {:.3} is {:.2} × the remainder {:.3} it leaves (needs {})",
+            c.gain, c.ratio, c.remainder, th.floor_ratio
+        ));
+    }
+    out
+}
+
+/// What a round concludes from the candidates that passed every test.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Decision {
+    None,
+    /// Add the candidate with this index.
+    Select(usize),
+    /// The best two explain the gap equally.
+    Ambiguous(usize, usize),
+}
+
+/// Pick among passing candidates given as (ΔIC, held-out gain): the lowest
+/// ΔIC wins unless the runner-up's gain is within `ambiguity` of the winner's.
+pub fn decide(passing: &[(f64, f64)], ambiguity: f64) -> Decision {
+    let mut order: Vec<usize> = (0..passing.len()).collect();
+    order.sort_by(|&a, &b| passing[a].0.total_cmp(&passing[b].0));
+    match order.as_slice() {
+        [] => Decision::None,
+        [a] => Decision::Select(*a),
+        [a, b, ..] => {
+            if passing[*b].1 >= (1.0 - ambiguity) * passing[*a].1 {
+                Decision::Ambiguous(*a, *b)
+            } else {
+                Decision::Select(*a)
+            }
+        }
+    }
+}
+
+/// Compute a structure's held-out errors if not known yet; returns simulations spent.
+pub fn ensure_heldout(base: &FlatNetlist, experiments: &[Experiment], s: &mut Structure, opts: &Options) -> Result<usize, String> {
+    if s.heldout.is_some() {
+        return Ok(0);
+    }
+    let problem = problem_for(base, experiments, s.effects.clone(), s.params.clone(), opts);
+    let h = leave_one_out(&problem, &s.fit)?;
+    let e = h.evaluations;
+    s.heldout = Some(h);
+    Ok(e)
+}
+
+/// The structure without its effect number `i`, refitted on the full records.
+fn without<'a>(
+    base: &'a FlatNetlist,
+    experiments: &'a [Experiment],
+    s: &Structure<'a>,
+    i: usize,
+    opts: &Options,
+) -> Result<Structure<'a>, String> {
+    let mut effects = s.effects.clone();
+    effects.remove(i);
+    let mut params: Vec<FitParam> = Vec::new();
+    let mut values = Vec::new();
+    for (p, v) in s.params.iter().zip(&s.fit.values) {
+        match p.target {
+            Target::Effect { slot, .. } if slot == i => continue,
+            Target::Effect { slot, k } => {
+                let mut q = p.clone();
+                q.target = Target::Effect { slot: if slot > i { slot - 1 } else { slot }, k };
+                params.push(q);
+            }
+            _ => params.push(p.clone()),
+        }
+        values.push(*v);
+    }
+    let problem = problem_for(base, experiments, effects.clone(), params.clone(), opts);
+    let f = fit_once(&problem, &values, &FitOptions { max_iter: opts.screen_iter, ..opts.fit.clone() })?;
+    Ok(Structure { effects, params, fit: f, heldout: None, short: None })
+}
+
+/// Run the greedy search and the backward check from the calibrated baseline.
+pub fn search<'a>(
+    base: &'a FlatNetlist,
+    experiments: &'a [Experiment],
+    pool: &[&'a dyn Effect],
+    baseline: Structure<'a>,
+    opts: &Options,
+) -> Result<Search<'a>, String> {
+    let th = opts.thresholds;
+    let mut out = Search {
+        model: baseline.clone(),
+        candidates: Vec::new(),
+        selected: Vec::new(),
+        ambiguous: Vec::new(),
+        alternatives: Vec::new(),
+        dropped: Vec::new(),
+        baseline_heldout: None,
+        evaluations: 0,
+        timing: BTreeMap::new(),
+    };
+    let mut current = baseline;
+    // models along the way, to reuse in the backward check
+    let mut path: Vec<Structure<'a>> = Vec::new();
+    for round in 1..=opts.max_effects {
+        let clock = std::time::Instant::now();
+        let probe =
+            problem_for(base, experiments, current.effects.clone(), current.params.clone(), opts).netlist(0, &current.fit.values)?;
+        let helped = |name: &str| {
+            round == 1 || out.candidates.iter().any(|c: &Candidate| c.round == round - 1 && c.effect == name && c.delta_ic < 0.0)
+        };
+        let tried: Vec<&dyn Effect> = pool
+            .iter()
+            .copied()
+            .filter(|e| !current.effects.iter().any(|c| c.name() == e.name()) && e.applies_to(&probe) && helped(e.name()))
+            .collect();
+        if tried.is_empty() {
+            break;
+        }
+        opts.progress.say(&format!(
+            "round {round}: trying {} candidate{} ({})",
+            tried.len(),
+            if tried.len() == 1 { "" } else { "s" },
+            tried.iter().map(|e| e.name()).collect::<Vec<_>>().join(", ")
+        ));
+        let mut preps: Vec<_> =
+            tried.par_iter().map(|e| prepare(base, experiments, &current, *e, Pass { round, rescue: false }, opts)).collect();
+        let best =
+            |p: &[crate::candidates::Prepared]| p.iter().map(|p| p.short_dic).filter(|d| d.is_finite()).fold(f64::INFINITY, f64::min);
+        let mut best_short = best(&preps);
+        // Rescue (first round): the baseline's full-record calibration did not
+        // converge and no candidate improved on the short records; start the
+        // candidates from the baseline's short-record optimum instead (a
+        // strong missing effect drags the full-record calibration away).
+        if current.effects.is_empty() && !current.fit.converged && best_short >= 0.0 && current.short.is_some() {
+            preps = tried.par_iter().map(|e| prepare(base, experiments, &current, *e, Pass { round, rescue: true }, opts)).collect();
+            best_short = best(&preps);
+        }
+        // the screen: improvement on the short records, relative to the best, and the best few
+        let mut order: Vec<usize> = (0..preps.len()).collect();
+        order.sort_by(|&a, &b| preps[a].short_dic.total_cmp(&preps[b].short_dic));
+        let rank: Vec<usize> = {
+            let mut r = vec![0; preps.len()];
+            for (pos, &i) in order.iter().enumerate() {
+                r[i] = pos;
+            }
+            r
+        };
+        let results: Vec<(Option<Structure<'a>>, Candidate)> = preps
+            .into_iter()
+            .enumerate()
+            .collect::<Vec<_>>()
+            .into_par_iter()
+            .map(|(i, p)| {
+                if p.short.is_none() {
+                    return (None, p.cand);
+                }
+                let d = p.short_dic;
+                if d.is_nan() || d >= -th.ic {
+                    let why = format!("screened out: ΔIC = {d:.1} on the first part of the records is not below -{}", th.ic);
+                    return (None, screened(p, why));
+                }
+                if best_short < 0.0 && d > opts.screen_relative * best_short {
+                    let why = format!(
+                        "screened out: ΔIC = {d:.1} on the first part of the records is less than {} of the best candidate's {best_short:.1}",
+                        opts.screen_relative
+                    );
+                    return (None, screened(p, why));
+                }
+                if rank[i] >= opts.screen_keep {
+                    let why = format!("screened out: only the best {} candidates on the first part of the records are fitted", opts.screen_keep);
+                    return (None, screened(p, why));
+                }
+                finish(&current, p, opts)
+            })
+            .collect();
+        let mut results = results;
+        for (s, c) in results.iter_mut() {
+            if s.is_some() && c.delta_ic >= -th.ic {
+                c.reasons.push(format!("information criterion: ΔIC = {:.1} is not below -{} (effective sample sizes)", c.delta_ic, th.ic));
+            }
+        }
+        // held-out and floor tests for the candidates that passed the rest
+        if results.iter().any(|(s, c)| s.is_some() && c.reasons.is_empty()) {
+            out.evaluations += ensure_heldout(base, experiments, &mut current, opts)?;
+            if current.effects.is_empty() {
+                out.baseline_heldout = current.heldout.clone();
+            }
+            let reference = current.heldout.clone().ok_or("no held-out reference")?;
+            results.par_iter_mut().for_each(|(s, c)| {
+                let Some(s) = s.as_mut().filter(|_| c.reasons.is_empty()) else { return };
+                match ensure_heldout(base, experiments, s, opts) {
+                    Ok(e) => c.evaluations += e,
+                    Err(e) => {
+                        c.reasons.push(format!("held-out prediction failed: {e}"));
+                        return;
+                    }
+                }
+                let Some(h) = &s.heldout else { return };
+                let cmp = compare(&reference, h, &th);
+                c.heldout_rmse = h.rmse();
+                c.heldout_gain = cmp.gain;
+                c.floor_ratio = cmp.ratio;
+                c.reasons.extend(heldout_reasons(&cmp, &th));
+            });
+        }
+        let mut passing: Vec<(Structure<'a>, Candidate)> = Vec::new();
+        for (s, mut c) in results {
+            c.accepted = c.reasons.is_empty() && s.is_some();
+            out.evaluations += c.evaluations;
+            opts.progress.say(&format!(
+                "  {}: {}",
+                c.effect,
+                if c.accepted { "passes every test".to_string() } else { c.reasons.first().cloned().unwrap_or_default() }
+            ));
+            if let (Some(s), true) = (s, c.accepted) {
+                passing.push((s, c.clone()));
+            }
+            out.candidates.push(c);
+        }
+        out.timing.insert(format!("round {round}"), clock.elapsed().as_secs_f64());
+        let scores: Vec<(f64, f64)> = passing.iter().map(|(_, c)| (c.delta_ic, c.heldout_gain)).collect();
+        match decide(&scores, th.ambiguity) {
+            Decision::None => break,
+            Decision::Ambiguous(a, b) => {
+                out.ambiguous = vec![passing[a].1.effect.clone(), passing[b].1.effect.clone()];
+                out.alternatives = vec![passing[a].0.clone(), passing[b].0.clone()];
+                break;
+            }
+            Decision::Select(a) => {
+                let (s, c) = passing.swap_remove(a);
+                out.selected.push(Selected { effect: c.effect.clone(), params: c.params.clone() });
+                path.push(current);
+                current = s;
+            }
+        }
+    }
+    // backward check
+    if current.effects.len() >= 2 {
+        let clock = std::time::Instant::now();
+        let mut i = 0;
+        while i < current.effects.len() && current.effects.len() >= 2 {
+            let name = current.effects[i].name().to_string();
+            let mut reduced =
+                match path.iter().find(|p| p.effects.len() + 1 == current.effects.len() && p.effects.iter().all(|e| e.name() != name)) {
+                    Some(p) => p.clone(),
+                    None => without(base, experiments, &current, i, opts)?,
+                };
+            out.evaluations += reduced.fit.evaluations;
+            out.evaluations += ensure_heldout(base, experiments, &mut reduced, opts)?;
+            out.evaluations += ensure_heldout(base, experiments, &mut current, opts)?;
+            let (Some(hr), Some(hc)) = (&reduced.heldout, &current.heldout) else { break };
+            let cmp = compare(hr, hc, &th);
+            let reasons = heldout_reasons(&cmp, &th);
+            if reasons.is_empty() {
+                i += 1;
+            } else {
+                opts.progress.say(&format!("backward check: {name} dropped ({})", reasons.join("; ")));
+                out.dropped.push((name.clone(), reasons.join("; ")));
+                out.selected.retain(|s| s.effect != name);
+                current = reduced;
+            }
+        }
+        out.timing.insert("backward check".into(), clock.elapsed().as_secs_f64());
+    }
+    out.model = current;
+    Ok(out)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::heldout::HeldBlock;
+
+    fn held(ms: f64) -> HeldOut {
+        HeldOut { blocks: vec![HeldBlock { experiment: 0, channel: 0, chi2: ms * 1000.0, n: 1000 }], evaluations: 0 }
+    }
+
+    #[test]
+    fn the_best_wins_unless_the_runner_up_explains_as_much() {
+        assert_eq!(decide(&[], 0.1), Decision::None);
+        assert_eq!(decide(&[(-500.0, 9.0)], 0.1), Decision::Select(0));
+        // gains 8 and 2: clear winner (index 1 has the lower ΔIC)
+        assert_eq!(decide(&[(-90.0, 2.0), (-900.0, 8.0)], 0.1), Decision::Select(1));
+        // gains 8 and 7.5: within 10 % → ambiguous, best first
+        assert_eq!(decide(&[(-800.0, 7.5), (-850.0, 8.0)], 0.1), Decision::Ambiguous(1, 0));
+        assert_eq!(decide(&[(-800.0, 7.5), (-850.0, 8.0)], 0.05), Decision::Select(1));
+    }
+
+    #[test]
+    fn the_floor_test_weighs_the_gain_against_the_remainder() {
+        let th = Thresholds::default();
+        // a real effect: 400 → 1.1 (gain 398.9, remainder 0.1)
+        let c = compare(&held(400.0), &held(1.1), &th);
+        assert!((c.gain - 398.9).abs() < 1e-9 && (c.remainder - 0.1).abs() < 1e-9);
+        assert!(heldout_reasons(&c, &th).is_empty());
+        // a model-form difference partly absorbed: 9 → 6 (gain 3, remainder 5)
+        let c = compare(&held(9.0), &held(6.0), &th);
+        assert!((c.ratio - 0.6).abs() < 1e-12);
+        let r = heldout_reasons(&c, &th);
+        assert_eq!(r.len(), 1);
+        assert!(r[0].contains("floor"), "{r:?}");
+        // at the noise level the remainder is floor_min, and a tiny gain fails the relative test
+        let c = compare(&held(1.02), &held(1.0), &th);
+        assert_eq!(c.remainder, th.floor_min);
+        assert!(heldout_reasons(&c, &th).iter().any(|r| r.contains("lowered by")));
+    }
+}

@@ -1,0 +1,138 @@
+//! The discrepancy workflow on data it did not make (issue 15).
+//!
+//! The measurements come from `pneumo-rig`, a second implementation of the
+//! meter-out rig that shares no code with pneumo (its own SDIRK integrator,
+//! junction solver, event handling, friction and sensors; see
+//! `tests/truth/mod.rs` for every difference). The model handed to the
+//! workflow is `models/meter_out.json` with only `supply.p` and the throttle
+//! set per experiment, as a user's manifest would.
+//!
+//! CI set (debug build, a few minutes on 2 cores): one seed of the nominal
+//! setting per case, two cycles per experiment, the whole catalogue:
+//! - nothing hidden → nothing named (no false alarm);
+//! - extra dead volume in one chamber → `dead_volume` named first and alone,
+//!   its volume within ±30 % of the truth;
+//! - a valve delay of 10–20 ms → `valve_delay` named first and alone, the
+//!   delay within ±30 % of the truth.
+//!
+//! The ±30 % tolerance is stated up front, not read off a run: the truth's
+//! model form differs (exact check valve, no laminar region, exact
+//! stick–slip) so a biased estimate is expected, but an effect "recovered"
+//! outside ±30 % would be the wrong size for an engineer's purposes.
+//!
+//! The long matrix (every case, several seeds, nominal and varied model
+//! forms, three cycles) is `full_matrix`, ignored here:
+//! `cargo test --release -p pneumo-identify --test independent -- --ignored --nocapture`
+//! (its table is in docs/discrepancy.md).
+
+mod truth;
+
+use identify::report::Outcome;
+use truth::{Case, Variation};
+
+/// Run the workflow on one case and seed.
+fn run(case: Case, seed: u64, variation: Variation, cycles: usize) -> (truth::Truth, Outcome) {
+    let t = truth::draw(case, seed, variation);
+    let records = truth::records(&t, seed, cycles).expect("the rig simulates");
+    let experiments = truth::experiments(&records).expect("the records are experiments");
+    let model = truth::model(case);
+    let calibrate = identify::params::default_calibration(&model);
+    let options = identify::Options { report: false, ..identify::Options::default() };
+    let o = identify::run(&model, &experiments, &calibrate, &options).expect("the workflow runs");
+    (t, o)
+}
+
+/// Names of the selected effects, sorted.
+fn named(o: &Outcome) -> Vec<String> {
+    let mut v: Vec<String> = o.summary.selected.iter().map(|s| s.effect.clone()).collect();
+    v.sort();
+    v
+}
+
+/// A table of the candidates, for failure messages.
+fn table(o: &Outcome) -> String {
+    let s = &o.summary;
+    let mut out = format!("verdict: {}\n", s.verdict);
+    for c in &s.candidates {
+        out += &format!(
+            "  r{} {:<18} dIC {:>10.1} held {:>7.3} {} {:?} {}\n",
+            c.round,
+            c.effect,
+            c.delta_ic,
+            c.heldout_rmse,
+            if c.accepted { "PASS" } else { "fail" },
+            c.params,
+            c.reasons.join("; ")
+        );
+    }
+    out
+}
+
+/// The one fitted value of `effect` whose parameter name satisfies `key`.
+fn fitted(o: &Outcome, effect: &str, key: impl Fn(&str) -> bool) -> f64 {
+    let s = o.summary.selected.iter().find(|s| s.effect == effect).unwrap_or_else(|| panic!("{effect} not selected\n{}", table(o)));
+    let hits: Vec<f64> = s.params.iter().filter(|(k, _)| key(k)).map(|(_, v)| *v).collect();
+    assert_eq!(hits.len(), 1, "parameters of {effect}: {:?}", s.params);
+    hits[0]
+}
+
+fn within(value: f64, truth: f64, rel: f64) -> bool {
+    (value - truth).abs() <= rel * truth.abs()
+}
+
+#[test]
+fn independent_null_data_name_nothing() {
+    let (t, o) = run(Case::Null, 1, Variation::Nominal, 2);
+    assert!(named(&o).is_empty() && o.summary.ambiguous.is_empty(), "{}\nfalse alarm:\n{}", t.description, table(&o));
+}
+
+#[test]
+fn independent_dead_volume_is_named_and_sized() {
+    let (t, o) = run(Case::DeadVolume, 1, Variation::Nominal, 2);
+    assert_eq!(named(&o), vec!["dead_volume"], "{}\n{}", t.description, table(&o));
+    let (head, rod) = (t.effects.extra_volume_head, t.effects.extra_volume_rod);
+    let (side, truth) = if head > 0.0 { ("head", head) } else { ("rod", rod) };
+    let v = fitted(&o, "dead_volume", |k| k.contains(side));
+    assert!(within(v, truth, 0.3), "{side} volume {:.2} cm3, truth {:.2} cm3\n{}", v * 1e6, truth * 1e6, table(&o));
+}
+
+#[test]
+fn independent_valve_delay_is_named_and_sized() {
+    let (t, o) = run(Case::ValveDelay, 1, Variation::Nominal, 2);
+    assert_eq!(named(&o), vec!["valve_delay"], "{}\n{}", t.description, table(&o));
+    let d = fitted(&o, "valve_delay", |k| k == "T");
+    assert!(within(d, t.effects.valve_delay, 0.3), "delay {:.2} ms, truth {:.2} ms\n{}", d * 1e3, t.effects.valve_delay * 1e3, table(&o));
+}
+
+/// Seeds per case of the long matrix (environment `SEEDS`, default 5).
+fn seeds() -> u64 {
+    std::env::var("SEEDS").ok().and_then(|s| s.parse().ok()).unwrap_or(5)
+}
+
+#[test]
+#[ignore = "long matrix: run with --release -- --ignored --nocapture"]
+fn full_matrix() {
+    let mut lines = Vec::new();
+    for variation in [Variation::Nominal, Variation::Varied] {
+        for case in Case::ALL {
+            let (mut exact, mut total) = (0, 0);
+            let mut confusions = std::collections::BTreeMap::<String, usize>::new();
+            for seed in 1..=seeds() {
+                let (_, o) = run(case, seed, variation, 3);
+                let got = named(&o).join("+");
+                let want = case.expected().join("+");
+                total += 1;
+                if got == want && o.summary.ambiguous.is_empty() {
+                    exact += 1;
+                }
+                let key = if o.summary.ambiguous.is_empty() { got } else { format!("ambiguous {}", o.summary.ambiguous.join("/")) };
+                *confusions.entry(if key.is_empty() { "none".into() } else { key }).or_default() += 1;
+                eprintln!("{variation:?} {} seed {seed}: {}", case.name(), o.summary.verdict);
+            }
+            let line = format!("| {variation:?} | {} | {exact}/{total} | {confusions:?} |", case.name());
+            eprintln!("{line}");
+            lines.push(line);
+        }
+    }
+    println!("| truth | hidden | named exactly | outcomes |\n|---|---|---|---|\n{}", lines.join("\n"));
+}
