@@ -117,7 +117,11 @@ fn mutate_json(v: &mut Value, rng: &mut Rng) {
     if all.is_empty() {
         return;
     }
-    let path = all[rng.below(all.len())].clone();
+    // half the edits hit a parameter, an initial value or a setting, so that
+    // mutants get past the reader and exercise the builder and the solver
+    let values: Vec<&Vec<String>> =
+        all.iter().filter(|p| p.len() >= 3 && p.iter().any(|k| k == "params" || k == "init") || p.first().is_some_and(|k| k == "simulation")).collect();
+    let path = if !values.is_empty() && rng.below(2) == 0 { values[rng.below(values.len())].clone() } else { all[rng.below(all.len())].clone() };
     let last = path.last().cloned().unwrap_or_default();
     let donor = {
         let d = &all[rng.below(all.len())];
