@@ -282,5 +282,5 @@ fn seeded_netlist_mutants_end_cleanly() {
     }
     println!("{n} mutants: {ok_check} passed check, {ok_sim} simulated; every other run ended with one error line");
     // the mutator must not be so destructive that nothing gets past the reader
-    assert!(ok_check > 0 && n >= 20 || n < 20, "no mutant passed check");
+    assert!(n < 20 || ok_check > 0, "no mutant passed check");
 }
