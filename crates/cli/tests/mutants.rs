@@ -119,9 +119,12 @@ fn mutate_json(v: &mut Value, rng: &mut Rng) {
     }
     // half the edits hit a parameter, an initial value or a setting, so that
     // mutants get past the reader and exercise the builder and the solver
-    let values: Vec<&Vec<String>> =
-        all.iter().filter(|p| p.len() >= 3 && p.iter().any(|k| k == "params" || k == "init") || p.first().is_some_and(|k| k == "simulation")).collect();
-    let path = if !values.is_empty() && rng.below(2) == 0 { values[rng.below(values.len())].clone() } else { all[rng.below(all.len())].clone() };
+    let values: Vec<&Vec<String>> = all
+        .iter()
+        .filter(|p| p.len() >= 3 && p.iter().any(|k| k == "params" || k == "init") || p.first().is_some_and(|k| k == "simulation"))
+        .collect();
+    let path =
+        if !values.is_empty() && rng.below(2) == 0 { values[rng.below(values.len())].clone() } else { all[rng.below(all.len())].clone() };
     let last = path.last().cloned().unwrap_or_default();
     let donor = {
         let d = &all[rng.below(all.len())];
@@ -283,4 +286,70 @@ fn seeded_netlist_mutants_end_cleanly() {
     println!("{n} mutants: {ok_check} passed check, {ok_sim} simulated; every other run ended with one error line");
     // the mutator must not be so destructive that nothing gets past the reader
     assert!(n < 20 || ok_check > 0, "no mutant passed check");
+}
+
+/// A discharge record as `pneumo conductance` reads it: 1 L from 6 bar
+/// through a restriction, as a smooth decay (the fuzzer needs a plausible
+/// file to mutate, not an exact one).
+fn discharge_csv() -> String {
+    let mut text = String::from("t,p,T\n");
+    for i in 0..200 {
+        let t = i as f64 * 0.01;
+        let p = 1.013e5 + 5.0e5 * (-t / 0.6).exp();
+        let temp = 293.15 - 30.0 * (-t / 0.6).exp() * (1.0 - (-t / 0.2).exp());
+        text.push_str(&format!("{t:.3},{p:.1},{temp:.2}\n"));
+    }
+    text
+}
+
+/// One edit of a CSV record: a hostile cell, a dropped, duplicated or
+/// swapped line, or a byte edit.
+fn mutate_csv(text: &str, rng: &mut Rng) -> Vec<u8> {
+    const CELLS: &[&str] = &["", "nan", "inf", "-1", "1e999", "abc", "\"", "1;2", "0x10", "\u{661}\u{662}", " 3 ", "-0"];
+    let mut lines: Vec<String> = text.lines().map(str::to_string).collect();
+    let i = rng.below(lines.len());
+    match rng.below(5) {
+        0 => {
+            let mut cells: Vec<String> = lines[i].split(',').map(str::to_string).collect();
+            let k = rng.below(cells.len());
+            cells[k] = CELLS[rng.below(CELLS.len())].to_string();
+            lines[i] = cells.join(",");
+        }
+        1 => {
+            lines.remove(i);
+        }
+        2 => {
+            let l = lines[i].clone();
+            lines.insert(i, l);
+        }
+        3 => {
+            let j = rng.below(lines.len());
+            lines.swap(i, j);
+        }
+        _ => {
+            let mut bytes = lines.join("\n").into_bytes();
+            mutate_text(&mut bytes, rng);
+            return bytes;
+        }
+    }
+    (lines.join("\n") + "\n").into_bytes()
+}
+
+#[test]
+fn seeded_discharge_csv_mutants_end_cleanly() {
+    let n: usize = std::env::var("PNEUMO_CSV_MUTANTS").ok().and_then(|s| s.parse().ok()).unwrap_or(30);
+    let dir = Scratch::new("csv-mutants");
+    let base = discharge_csv();
+    let mut rng = Rng(0x5851_f42d_4c95_7f2d);
+    let mut fitted = 0;
+    for k in 0..n {
+        let mut bytes = mutate_csv(&base, &mut rng);
+        if rng.below(3) == 0 {
+            bytes = mutate_csv(&String::from_utf8_lossy(&bytes), &mut rng);
+        }
+        std::fs::write(dir.0.join("d.csv"), &bytes).unwrap();
+        let out = pneumo(&dir.0, &["conductance", "--volume", "1 L", "--data", "d.csv"]);
+        fitted += clean(&out, &format!("csv mutant {k}")) as usize;
+    }
+    println!("{n} CSV mutants: {fitted} fitted; every other run ended with one error line");
 }
