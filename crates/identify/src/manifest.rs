@@ -101,12 +101,18 @@ pub fn parse(text: &str, origin: &str) -> Result<Manifest, ManifestError> {
         file: origin.to_string(),
         line: e.line(),
         column: e.column(),
-        message: e.to_string().split(" at line ").next().unwrap_or_default().to_string(),
+        message: printable(e.to_string().split(" at line ").next().unwrap_or_default()),
     })?;
     if m.experiments.is_empty() {
         return Err(ManifestError::Invalid { file: origin.into(), message: "\"experiments\" is empty".into() });
     }
     Ok(m)
+}
+
+/// `s` with control characters escaped (`\u{1b}`), for messages that quote
+/// the manifest's text.
+fn printable(s: &str) -> String {
+    s.chars().map(|c| if c.is_control() { c.escape_default().to_string() } else { c.to_string() }).collect()
 }
 
 /// "id.param=value" text of one `set` entry (numbers are SI).
@@ -149,6 +155,11 @@ pub struct Resolved {
 /// `read(path)` returns the text of a data file named in the manifest
 /// (paths as written, for the caller to resolve against the manifest).
 pub fn resolve(m: &Manifest, flat: &graph::FlatNetlist, read: &ReadData) -> Result<Resolved, String> {
+    // messages quote names and values from the manifest: escape what they echo
+    resolve_unescaped(m, flat, read).map_err(|e| printable(&e))
+}
+
+fn resolve_unescaped(m: &Manifest, flat: &graph::FlatNetlist, read: &ReadData) -> Result<Resolved, String> {
     let units = signal_units(flat)?;
     let mut noise = Vec::new();
     for (signal, v) in &m.noise {

@@ -61,7 +61,10 @@ def test_ctrl_c_stops_the_whole_analysis(python_child):
 
     child = python_child(
         """
-import sys, time, pneumo
+import signal, sys, time, pneumo
+# a child started from a background job inherits SIGINT ignored; Ctrl-C is
+# tested with Python's own handler, as in an interactive session
+signal.signal(signal.SIGINT, signal.default_int_handler)
 print("ready", flush=True)
 try:
     pneumo.discrepancy("models/meter_out.json", "models/examples/discrepancy/experiments.json")

@@ -28,7 +28,7 @@ from pneumo._sweep import read_csv_exact
 def test_the_readme_one_liner_gives_the_first_cycle(meter_out):
     r = pneumo.load(meter_out).simulate(cycles=3)
     first = r.summary["cycles"][0]
-    assert set(first) == {"start_s", "extend_s", "retract_s", "total_s"}
+    assert {"start_s", "extend_s", "retract_s", "total_s"} <= set(first)
     assert first["start_s"] == 0.0 and 0 < first["extend_s"] < first["total_s"]
     assert len(r.summary["cycles"]) == 3
 
@@ -155,11 +155,14 @@ def test_the_gil_is_released_while_simulating(meter_out):
     assert spins > 1000, f"the main thread ran only {spins} loops during the simulation"
 
 
-@pytest.mark.parametrize("call", ["m.simulate(t_end=900)", "pneumo.sweep(m, vary={'supply.p': ['4 bar', '5 bar', '6 bar', '7 bar']}, t_end=900, jobs=2)"])
+@pytest.mark.parametrize("call", ["m.simulate(t_end=9000)", "pneumo.sweep(m, vary={'supply.p': ['4 bar', '5 bar', '6 bar', '7 bar']}, t_end=9000, jobs=2)"])
 def test_ctrl_c_stops_a_long_run(call, python_child):
     code = f"""
-import sys, time, pneumo
-m = pneumo.load("models/meter_out.json").set(**{{"simulation.sample_interval": "10 ms"}})
+import signal, sys, time, pneumo
+# a child started from a background job inherits SIGINT ignored; Ctrl-C is
+# tested with Python's own handler, as in an interactive session
+signal.signal(signal.SIGINT, signal.default_int_handler)
+m = pneumo.load("models/meter_out.json").set(**{{"simulation.sample_interval": "100 ms"}})
 print("ready", flush=True)
 t0 = time.monotonic()
 try:
