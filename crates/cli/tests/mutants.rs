@@ -18,11 +18,10 @@
 
 mod common;
 
-use common::Scratch;
+use common::{pneumo_in as pneumo, Scratch};
 use serde_json::Value;
 use std::path::Path;
-use std::process::{Command, Output, Stdio};
-use std::time::{Duration, Instant};
+use std::process::Output;
 
 /// xorshift64*: a small deterministic generator (no dependency, same
 /// sequence on every machine).
@@ -191,27 +190,6 @@ fn mutate_text(t: &mut Vec<u8>, rng: &mut Rng) {
         0 => t.truncate(i),
         1 => t[i] ^= 1 << rng.below(8),
         _ => t.insert(i, [b'{', b'"', b'\\', b'\0', 0xff, b']', b'9'][rng.below(7)]),
-    }
-}
-
-fn pneumo(dir: &Path, args: &[&str]) -> Output {
-    let mut child = Command::new(env!("CARGO_BIN_EXE_pneumo"))
-        .args(args)
-        .current_dir(dir)
-        .stdout(Stdio::piped())
-        .stderr(Stdio::piped())
-        .spawn()
-        .expect("start pneumo");
-    let start = Instant::now();
-    loop {
-        if child.try_wait().expect("wait").is_some() {
-            return child.wait_with_output().expect("output");
-        }
-        if start.elapsed() > Duration::from_secs(60) {
-            let _ = child.kill();
-            panic!("pneumo {args:?} in {} did not finish within 60 s", dir.display());
-        }
-        std::thread::sleep(Duration::from_millis(10));
     }
 }
 

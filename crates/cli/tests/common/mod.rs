@@ -44,3 +44,28 @@ impl Drop for Scratch {
         let _ = std::fs::remove_dir_all(&self.0);
     }
 }
+
+/// Run the `pneumo` binary in `dir` with a wall-clock limit of 60 s (a hang
+/// fails the test instead of blocking it).
+pub fn pneumo_in(dir: &Path, args: &[&str]) -> std::process::Output {
+    use std::process::{Command, Stdio};
+    use std::time::{Duration, Instant};
+    let mut child = Command::new(env!("CARGO_BIN_EXE_pneumo"))
+        .args(args)
+        .current_dir(dir)
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("start pneumo");
+    let start = Instant::now();
+    loop {
+        if child.try_wait().expect("wait").is_some() {
+            return child.wait_with_output().expect("output");
+        }
+        if start.elapsed() > Duration::from_secs(60) {
+            let _ = child.kill();
+            panic!("pneumo {args:?} in {} did not finish within 60 s", dir.display());
+        }
+        std::thread::sleep(Duration::from_millis(10));
+    }
+}
