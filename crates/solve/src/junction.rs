@@ -255,20 +255,10 @@ fn solve_node(
         if let Some((root, flows, d)) = newton(circuit, slots, attached, gas, t, y, temp, start, (lo0, hi0)) {
             p = root;
             slope[node] = d;
-            match energy_step(gas, p, temp, &flows, &mut energy) {
-                EnergyStep::Done => break,
-                EnergyStep::Next(t1) => {
-                    if !t1.is_finite() || t1 <= 0.0 {
-                        return Err(fail(format!("junction temperature not finite at p = {p} Pa")));
-                    }
-                    let converged = (t1 - temp).abs() <= 1e-11 * temp;
-                    temp = t1;
-                    if converged {
-                        break;
-                    }
-                    continue;
-                }
+            if temperature_settled(energy_step(gas, p, temp, &flows, &mut energy), p, &mut temp).map_err(&fail)? {
+                break;
             }
+            continue;
         }
         let mut eval = |p: f64| node_flows(circuit, slots, attached, state_at(p, temp), gas, t, y).mass;
         // 1. secant from the previous solution, its first step taken with the
@@ -376,18 +366,8 @@ fn solve_node(
         // energy balance of the massless node: E(T) = 0, the net energy flow
         // out of the node, with p re-solved for every T
         let f = node_flows(circuit, slots, attached, gas.state_pt(p, temp), gas, t, y);
-        match energy_step(gas, p, temp, &f, &mut energy) {
-            EnergyStep::Done => break,
-            EnergyStep::Next(t1) => {
-                if !t1.is_finite() || t1 <= 0.0 {
-                    return Err(fail(format!("junction temperature not finite at p = {p} Pa")));
-                }
-                let converged = (t1 - temp).abs() <= 1e-11 * temp;
-                temp = t1;
-                if converged {
-                    break;
-                }
-            }
+        if temperature_settled(energy_step(gas, p, temp, &f, &mut energy), p, &mut temp).map_err(&fail)? {
+            break;
         }
     }
     let state = gas.state_pt(p, temp);
@@ -400,6 +380,23 @@ fn solve_node(
         slots[bi].gas[k] = state;
     }
     Ok(())
+}
+
+/// Take one step of the junction temperature: true when the energy balance
+/// holds or T has settled to 1e-11 relative; an error when the step leaves
+/// the physical range.
+fn temperature_settled(step: EnergyStep, p: f64, temp: &mut f64) -> Result<bool, String> {
+    match step {
+        EnergyStep::Done => Ok(true),
+        EnergyStep::Next(t1) => {
+            if !t1.is_finite() || t1 <= 0.0 {
+                return Err(format!("junction temperature not finite at p = {p} Pa"));
+            }
+            let settled = (t1 - *temp).abs() <= 1e-11 * *temp;
+            *temp = t1;
+            Ok(settled)
+        }
+    }
 }
 
 /// What the energy balance asks after a pressure solve at temperature `temp`.
