@@ -721,7 +721,8 @@ impl Rosenbrock {
             if let Some(index) = y.iter().position(|v| !v.is_finite()) {
                 return Err(IntegratorError::NonFinite { t, index });
             }
-            if let Some(index) = eval_rhs(sys, t, y, &mut self.f0, &mut self.stats)? {
+            // f and the root functions at the (re)start point in one evaluation
+            if let Some(index) = eval_rhs_and_roots(sys, t, y, &mut self.f0, &mut self.g0, &mut self.stats)? {
                 return Err(IntegratorError::NonFinite { t, index });
             }
             self.t_cache = t;
@@ -731,7 +732,9 @@ impl Rosenbrock {
             self.roots_valid = false;
         }
         if !self.roots_valid {
-            eval_roots(sys, t, y, &mut self.g0)?;
+            if same_point {
+                eval_roots(sys, t, y, &mut self.g0)?;
+            }
             sys.root_directions(&mut self.directions);
             self.last_side.fill(0.0);
             self.roots_valid = true;

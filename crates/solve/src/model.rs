@@ -93,6 +93,8 @@ pub struct Model {
     pub evaluations: u64,
     /// Evaluate signals as at rest before t = 0 (see [`crate::rest`]).
     pub(crate) at_rest: bool,
+    /// Derivative and warm-start buffers reused by [`Model::record`].
+    record_scratch: (Vec<f64>, WarmStart),
 }
 
 /// Saved junction warm starts (see [`Model::save_warm_start_into`]).
@@ -226,6 +228,7 @@ impl Model {
             junction_slope: vec![f64::NAN; n_nodes],
             evaluations: 0,
             at_rest: false,
+            record_scratch: Default::default(),
             circuit,
         }
     }
@@ -618,14 +621,22 @@ impl Model {
     /// evaluation counter are restored, so a run gives the same numbers
     /// whether or not (and how densely) it is sampled.
     pub fn record(&mut self, t: f64, y: &[f64], row: &mut [Option<f64>]) -> Result<(), ModelError> {
-        let mut dy = vec![0.0; self.dim()];
-        let mut warm = WarmStart::default();
+        // scratch buffers kept in the model: recording runs at every step
+        let (mut dy, mut warm) = std::mem::take(&mut self.record_scratch);
+        dy.clear();
+        dy.resize(self.dim(), 0.0);
         self.save_warm_start_into(&mut warm);
         let evaluations = self.evaluations;
         let evaluated = self.eval(t, y, Some(&mut dy), None);
         self.restore_warm_start_from(&warm);
         self.evaluations = evaluations;
-        evaluated?;
+        let result = evaluated.and_then(|()| self.record_outputs(t, y, &dy, row));
+        self.record_scratch = (dy, warm);
+        result
+    }
+
+    /// The recording half of [`Model::record`], after the evaluation.
+    fn record_outputs(&self, t: f64, y: &[f64], dy: &[f64], row: &mut [Option<f64>]) -> Result<(), ModelError> {
         for (bi, slot) in self.slots.iter().enumerate() {
             let block = &self.circuit.instances[bi].block;
             let n_sig = slot.sig_out.len();
@@ -680,10 +691,10 @@ fn self_state_name(circuit: &Circuit, slots: &[Slot], i: usize) -> String {
 pub fn node_mass(c: &Circuit, node: usize) -> f64 {
     let mn = &c.mechanical_nodes[node];
     let mut mass = c.instances[mn.inertia.block].block.inertia();
-    let mut seen: Vec<usize> = vec![mn.inertia.block];
-    for r in &mn.ports {
-        if !seen.contains(&r.block) {
-            seen.push(r.block);
+    // each block counted once, without allocating (this runs in every evaluation)
+    for (k, r) in mn.ports.iter().enumerate() {
+        let seen = r.block == mn.inertia.block || mn.ports[..k].iter().any(|q| q.block == r.block);
+        if !seen {
             mass += c.instances[r.block].block.carried_mass();
         }
     }

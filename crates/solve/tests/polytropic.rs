@@ -39,7 +39,10 @@ fn an_adiabatic_discharge_has_the_isentropic_mean_index() {
 
 #[test]
 fn a_tiny_thermal_time_constant_gives_an_isothermal_mean_index() {
-    let res = run(&flat_from_model("meter_out.json", &["tau_thermal=1e-5 s", "simulation.cycles=1", "simulation.rtol=1e-8"]));
+    let res = run(&flat_from_model(
+        "meter_out.json",
+        &["tau_thermal=1e-5 s", "simulation.cycles=1", "simulation.rtol=1e-8", "simulation.atol=1e-8"],
+    ));
     for (id, stroke) in [("head", "extend"), ("head", "retract"), ("rod", "extend"), ("rod", "retract")] {
         let n = mean_index(&res, id, stroke, 1);
         assert!((n - 1.0).abs() < 0.02, "{id} {stroke}: n = {n}");
