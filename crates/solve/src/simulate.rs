@@ -493,7 +493,11 @@ fn run(model: &mut Model, opts: &SimOptions, mut observer: Option<&mut dyn FnMut
         stats: Default::default(),
         rhs_evaluations: 0,
         linear_algebra: "dense",
-        evaluations_per_jacobian: structure.as_ref().map_or(model.n_states + 1, |s| s.evaluations_per_jacobian()),
+        evaluations_per_jacobian: structure.as_ref().map_or_else(
+            // one per state column, and one for ∂f/∂t unless no block depends on time
+            || model.n_states + usize::from(model.circuit.instances.iter().any(|i| i.block.time_dependent())),
+            |s| s.evaluations_per_jacobian(),
+        ),
         rest,
         final_state: FinalState::default(),
         stroke_statistics: Vec::new(),
