@@ -31,6 +31,7 @@ library! {
     chamber => [TYPE],
     tube => [TYPE],
     conductance => [TYPE],
+    capillary => [TYPE],
     check_valve => [TYPE],
     speed_control_valve => [TYPE],
     directional_valve => [TYPE_5_2, TYPE_3_2, TYPE_2_2],

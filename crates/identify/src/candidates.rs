@@ -283,13 +283,35 @@ pub fn prepare<'a>(
     } else {
         FitOptions { stage_max_iter: opts.screen_iter, ..opts.fit.clone() }
     };
-    let shorts: Vec<Result<Staged, String>> = starts.par_iter().map(|st| fit_short_stages(&problem, st, &fit_opts)).collect();
+    let mut shorts: Vec<Result<Staged, String>> = starts.par_iter().map(|st| fit_short_stages(&problem, st, &fit_opts)).collect();
+    // The candidate nests the current model (every added parameter at its
+    // null value gives the current model back): one more start, the current
+    // model's own short-record optimum with the effect switched off, fitted
+    // on the screening horizon only. Least squares never ends above its
+    // start, so the candidate's short-record χ² is at most the reference's
+    // and a nested candidate cannot score a positive short-record ΔIC
+    // beyond its parameter penalty (the continuation from the full-record
+    // values can settle in another, worse minimum of the position-triggered
+    // cycles).
+    if let (Some(reference), true) = (&current.short, !added.is_empty() && added.iter().all(|p| p.null.is_some())) {
+        let mut nested = reference.values.clone();
+        nested.extend(added.iter().map(|p| p.null.unwrap_or(p.start)));
+        let last_stage = FitOptions { horizons: vec![horizon], ..fit_opts.clone() };
+        shorts.push(fit_short_stages(&problem, &nested, &last_stage));
+    }
     cand.evaluations += shorts.iter().map(|r| r.as_ref().map_or(0, |s| s.evaluations)).sum::<usize>();
     let mut errors: Vec<String> = shorts.iter().filter_map(|r| r.as_ref().err().cloned()).collect();
-    let short = shorts.into_iter().filter_map(|r| r.ok()).min_by(|a, b| {
-        let key = |s: &Staged| s.short.as_ref().map_or(f64::INFINITY, |f| f.chi2);
-        key(a).total_cmp(&key(b))
-    });
+    // the best start by the screen's own criterion: the short-record ΔIC
+    // against the current model (per-block, on effective sizes), which can
+    // rank two fits differently from their total χ²; χ² without a reference
+    let score = |s: &Staged| -> f64 {
+        let Some(b) = s.short.as_ref() else { return f64::INFINITY };
+        match &current.short {
+            Some(a) if a.stats.n == b.stats.n => delta_ic(&a.stats.chi2, &b.stats.chi2, &b.stats.n_eff(), 0),
+            _ => b.chi2,
+        }
+    };
+    let short = shorts.into_iter().filter_map(|r| r.ok()).min_by(|a, b| score(a).total_cmp(&score(b)));
     if short.is_none() {
         errors.dedup();
         cand.reasons.push(format!("fit failed: {}", errors.join("; ")));

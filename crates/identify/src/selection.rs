@@ -25,8 +25,8 @@
 //! screens candidates on the short records first (see
 //! [`crate::candidates`]): only those whose short-record ΔIC is below −`ic`
 //! and at least `screen_relative` of the best one's, and at most
-//! `screen_keep` of them, get a full fit. Later rounds retry only effects
-//! whose short-record ΔIC was negative in the previous round.
+//! `screen_keep` of them, get a full fit. Later rounds retry every effect
+//! not yet in the model (one added effect can unmask another).
 //!
 //! # Backward check
 //! With two or more effects named, each is removed in turn from the final
@@ -202,14 +202,12 @@ pub fn search<'a>(
         let clock = std::time::Instant::now();
         let probe =
             problem_for(base, experiments, current.effects.clone(), current.params.clone(), opts).netlist(0, &current.fit.values)?;
-        let helped = |name: &str| {
-            round == 1 || out.candidates.iter().any(|c: &Candidate| c.round == round - 1 && c.effect == name && c.delta_ic < 0.0)
-        };
-        let tried: Vec<&dyn Effect> = pool
-            .iter()
-            .copied()
-            .filter(|e| !current.effects.iter().any(|c| c.name() == e.name()) && e.applies_to(&probe) && helped(e.name()))
-            .collect();
+        // every effect not in the model yet is tried again: one that did not
+        // help in the previous round may have been masked by the effect just
+        // added (a seal leak hides behind a valve delay that shifts every
+        // stroke by more than the leak does)
+        let tried: Vec<&dyn Effect> =
+            pool.iter().copied().filter(|e| !current.effects.iter().any(|c| c.name() == e.name()) && e.applies_to(&probe)).collect();
         if tried.is_empty() {
             break;
         }

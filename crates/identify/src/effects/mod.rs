@@ -9,7 +9,7 @@
 //!
 //! | effect | what it adds | parameters (null) |
 //! |---|---|---|
-//! | `piston_seal_leak` | ISO 6358 conductance between the two chambers | C (0) |
+//! | `piston_seal_leak` | orifice (ISO 6358) and laminar capillary between the chambers | C (0), laminar share |
 //! | `dead_volume` | extra volume in either chamber | extra_head, extra_rod (0, 0) |
 //! | `valve_delay` | dead time between command and valve (a `delay` block) | T (0) |
 //! | `stribeck_friction` | breakaway above the Coulomb level, decaying with speed | breakaway_ratio (1), stribeck_velocity |
