@@ -34,10 +34,11 @@
 //! held-out and floor tests (3, 4) against that reduced model. An effect
 //! named first that a later one made unnecessary is dropped.
 
+use crate::candidates::short_reference;
 use crate::candidates::{finish, prepare, problem_for, screened, Candidate, Pass, Structure};
 use crate::effects::Effect;
 use crate::experiment::Experiment;
-use crate::fit::{fit_once, FitOptions};
+use crate::fit::{fit_once, fit_short_stages, screen_horizon, FitOptions};
 use crate::heldout::{leave_one_out, HeldOut};
 use crate::options::{Options, Thresholds};
 use crate::params::{FitParam, Target};
@@ -173,6 +174,33 @@ fn without<'a>(
     let problem = problem_for(base, experiments, effects.clone(), params.clone(), opts);
     let f = fit_once(&problem, &values, &FitOptions { max_iter: opts.screen_iter, ..opts.fit.clone() })?;
     Ok(Structure { effects, params, fit: f, heldout: None, short: None })
+}
+
+/// Refit a model that has just gained an effect once more, from its own
+/// short-record optimum: the short-record stage continued on the screening
+/// horizon, then the full records. The candidate fits that chose it were
+/// cut short (`screen_iter`), and the position-triggered cycles leave local
+/// minima; without this, the next round's candidates — which nest the model
+/// and start from that same optimum — would "improve" on it with their
+/// effect at its null and be credited with the better calibration. Kept
+/// only if the full-record χ² falls. Returns the simulations spent.
+fn polish(base: &FlatNetlist, experiments: &[Experiment], s: &mut Structure, opts: &Options) -> Result<usize, String> {
+    let (Some(short), Some(h)) = (s.short.clone(), screen_horizon(&opts.fit)) else { return Ok(0) };
+    let problem = problem_for(base, experiments, s.effects.clone(), s.params.clone(), opts);
+    let stage = fit_short_stages(&problem, &short.values, &FitOptions { horizons: vec![h], ..opts.fit.clone() })?;
+    let from = stage.values_short().map(<[f64]>::to_vec).unwrap_or(short.values);
+    let f = fit_once(&problem, &from, &opts.fit)?;
+    let spent = stage.evaluations + f.evaluations;
+    if f.chi2 < s.fit.chi2 {
+        let reference = short_reference(&problem, stage.short.as_ref(), &f.values, opts);
+        s.short = match (reference, s.short.take()) {
+            (Some(a), Some(b)) => Some(if a.stats.chi2_total() <= b.stats.chi2_total() { a } else { b }),
+            (a, b) => a.or(b),
+        };
+        s.fit = f;
+        s.heldout = None;
+    }
+    Ok(spent)
 }
 
 /// Run the greedy search and the backward check from the calibrated baseline.
@@ -322,8 +350,20 @@ pub fn search<'a>(
                 break;
             }
             Decision::Select(a) => {
-                let (s, c) = passing.swap_remove(a);
-                out.selected.push(Selected { effect: c.effect.clone(), params: c.params.clone() });
+                let (mut s, c) = passing.swap_remove(a);
+                if round < opts.max_effects {
+                    out.evaluations += polish(base, experiments, &mut s, opts)?;
+                }
+                // the effect's parameters as the (possibly polished) model holds them
+                let slot = s.effects.len() - 1;
+                let params = s
+                    .params
+                    .iter()
+                    .zip(&s.fit.values)
+                    .filter(|(p, _)| matches!(p.target, Target::Effect { slot: k, .. } if k == slot))
+                    .map(|(p, v)| (p.name.rsplit('.').next().unwrap_or(&p.name).to_string(), *v))
+                    .collect();
+                out.selected.push(Selected { effect: c.effect.clone(), params });
                 path.push(current);
                 current = s;
             }
