@@ -28,6 +28,10 @@
 //! `screen_keep` of them, get a full fit. Later rounds retry every effect
 //! not yet in the model (one added effect can unmask another).
 //!
+//! A selected model is polished before the next round (`polish`): the
+//! candidate fits that chose it were cut short, and the next round's nested
+//! candidates must not be credited with a better calibration of it.
+//!
 //! # Backward check
 //! With two or more effects named, each is removed in turn from the final
 //! model (refitted without it) and kept only if the final model passes the
