@@ -88,7 +88,12 @@ pub fn short_reference(problem: &Problem, staged: Option<&Fit>, values: &[f64], 
     let short = problem.truncated(h);
     let at_final = short.residuals(values).ok().map(|r| Short { values: values.to_vec(), stats: block_stats(&short, &r) });
     let staged = staged.map(|f| Short { values: f.values.clone(), stats: f.stats.clone() });
-    match (staged, at_final) {
+    better_short(staged, at_final)
+}
+
+/// The short-record reference with the lower χ² (either, when one is missing).
+pub fn better_short(a: Option<Short>, b: Option<Short>) -> Option<Short> {
+    match (a, b) {
         (Some(a), Some(b)) => Some(if a.stats.chi2_total() <= b.stats.chi2_total() { a } else { b }),
         (a, b) => a.or(b),
     }

@@ -38,7 +38,7 @@
 //! held-out and floor tests (3, 4) against that reduced model. An effect
 //! named first that a later one made unnecessary is dropped.
 
-use crate::candidates::short_reference;
+use crate::candidates::{better_short, short_reference};
 use crate::candidates::{finish, prepare, problem_for, screened, Candidate, Pass, Structure};
 use crate::effects::Effect;
 use crate::experiment::Experiment;
@@ -197,10 +197,7 @@ fn polish(base: &FlatNetlist, experiments: &[Experiment], s: &mut Structure, opt
     let spent = stage.evaluations + f.evaluations;
     if f.chi2 < s.fit.chi2 {
         let reference = short_reference(&problem, stage.short.as_ref(), &f.values, opts);
-        s.short = match (reference, s.short.take()) {
-            (Some(a), Some(b)) => Some(if a.stats.chi2_total() <= b.stats.chi2_total() { a } else { b }),
-            (a, b) => a.or(b),
-        };
+        s.short = better_short(reference, s.short.take());
         s.fit = f;
         s.heldout = None;
     }
