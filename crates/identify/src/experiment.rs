@@ -118,7 +118,7 @@ pub fn decimate(e: &Experiment, fit_interval: f64) -> (Vec<usize>, f64) {
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
 
     pub(crate) fn dataset(names: &[&str], n: usize) -> Dataset {

@@ -207,18 +207,8 @@ pub fn effect_params(effect: &dyn Effect, slot: usize) -> Vec<FitParam> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::data::Dataset;
+    use crate::experiment::tests::dataset;
     use crate::netlist_edit::tests_support::meter_out;
-
-    fn dataset(names: &[&str], n: usize) -> Dataset {
-        Dataset {
-            origin: "mem".into(),
-            times: (0..n).map(|i| 5.0 + i as f64 * 1e-3).collect(),
-            names: names.iter().map(|s| s.to_string()).collect(),
-            values: names.iter().map(|_| (0..n).map(|i| Some((i % 7) as f64)).collect()).collect(),
-            lines: vec![],
-        }
-    }
 
     #[test]
     fn calibration_groups_per_distinct_setting() {
