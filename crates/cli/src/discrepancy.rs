@@ -29,7 +29,7 @@ use crate::output::Transaction;
 use identify::candidates::{Candidate, Estimate};
 use identify::diagnose::Trace;
 use identify::phases::Phase;
-use identify::report::{ModelSummary, Outcome};
+use identify::report::{ModelSummary, Outcome, SensorEstimate};
 use plotters::prelude::{
     BitMapBackend, ChartBuilder, Color, FontStyle, IntoDrawingArea, IntoLogRange, LineSeries, PathElement, RGBColor, Rectangle,
     SeriesLabelPosition, BLACK, WHITE,
@@ -181,6 +181,25 @@ fn noise_text(signal: &str, sigma: f64) -> String {
         "v" => format!("{} mm/s", fmt(sigma * 1e3)),
         _ => fmt(sigma),
     }
+}
+
+/// One row of the sensor-error table: offset in the channel's unit, gain in %, skew in ms.
+fn sensor_row(x: &SensorEstimate) -> String {
+    let ci = |c: Option<(f64, f64)>, f: &dyn Fn(f64) -> String| c.map(|(a, b)| format!(" [{}, {}]", f(a), f(b))).unwrap_or_default();
+    let offset = |v: f64| noise_text(&x.signal, v);
+    let gain = |v: f64| format!("{} %", fmt(100.0 * v));
+    let skew = |v: f64| format!("{} ms", fmt(1e3 * v));
+    format!(
+        "| {} | {} | {}{} | {}{} | {}{} |\n",
+        x.experiment,
+        x.signal,
+        offset(x.offset),
+        ci(x.offset_ci95, &offset),
+        gain(x.gain),
+        ci(x.gain_ci95, &gain),
+        skew(x.time_skew),
+        ci(x.time_skew_ci95, &skew)
+    )
 }
 
 fn estimate_row(e: &Estimate) -> String {
@@ -493,6 +512,15 @@ fn model_section(md: &mut String, title: &str, m: &ModelSummary) {
     for e in &m.params {
         md.push_str(&estimate_row(e));
     }
+    if !m.sensors.is_empty() {
+        let _ = writeln!(
+            md,
+            "\nSensor errors, fitted with every model and never a missing effect (95 % intervals):\n\n| experiment | channel | offset | gain error | logger time skew |\n|---|---|---|---|---|"
+        );
+        for x in &m.sensors {
+            md.push_str(&sensor_row(x));
+        }
+    }
     let _ = writeln!(md, "\n| channel | RMSE | RMSE / σ | bias | lag-1 autocorrelation | Ljung–Box Q/L |\n|---|---|---|---|---|---|");
     for (ch, c) in &m.diagnosis.channels {
         let w = m.diagnosis.whiteness.get(ch);
@@ -747,5 +775,16 @@ mod tests {
         assert_eq!(effect_value("no_such_effect", "C", 2.5), "2.5");
         assert_eq!(noise_text("head.p", 500.0), "5 mbar");
         assert_eq!(noise_text("piston.x", 2e-5), "20 µm");
+        let x = SensorEstimate {
+            experiment: "4bar".into(),
+            signal: "head.p".into(),
+            offset: 1000.0,
+            offset_ci95: Some((900.0, 1100.0)),
+            gain: 0.0,
+            gain_ci95: None,
+            time_skew: 4e-4,
+            time_skew_ci95: Some((3e-4, 5e-4)),
+        };
+        assert_eq!(sensor_row(&x), "| 4bar | head.p | 10 mbar [9 mbar, 11 mbar] | 0 % | 0.4 ms [0.3 ms, 0.5 ms] |\n");
     }
 }

@@ -66,10 +66,33 @@ fn main() -> Result<(), String> {
     }
     let experiments = truth::experiments(&records)?;
     let model = truth::model(case);
-    let calibrate = identify::params::default_calibration(&model);
+    let mut calibrate = identify::params::default_calibration(&model);
+    // debugging knob: DROP=id.param,... removes calibration targets
+    if let Ok(drop) = std::env::var("DROP") {
+        calibrate.retain(|c| !drop.split(',').any(|d| d == c.target));
+    }
+    // debugging knob: EXTRA=id.param:lo:hi,... adds calibration targets
+    if let Ok(extra) = std::env::var("EXTRA") {
+        for item in extra.split(',').filter(|s| !s.is_empty()) {
+            let parts: Vec<&str> = item.split(':').collect();
+            let bound = |i: usize| parts.get(i).and_then(|v| v.parse::<f64>().ok());
+            let bounds = bound(1).zip(bound(2));
+            calibrate.push(identify::params::CalibSpec { target: parts[0].to_string(), bounds });
+        }
+    }
     let mut options = identify::Options { report: true, ..identify::Options::default() };
     if std::env::var("BASEONLY").is_ok() {
         options.effects = Some(vec![]);
+    }
+    // debugging knobs: ONLY=a,b restricts the catalogue, STARTS=n the starts per shaped effect
+    if let Ok(only) = std::env::var("ONLY") {
+        options.effects = Some(only.split(',').map(str::to_string).collect());
+    }
+    if let Some(n) = std::env::var("STARTS").ok().and_then(|s| s.parse().ok()) {
+        options.starts = n;
+    }
+    if let Some(x) = std::env::var("SKEW").ok().and_then(|s| s.parse().ok()) {
+        options.sensors.skew = x;
     }
     let o = identify::run(&model, &experiments, &calibrate, &options).map_err(|e| e.to_string())?;
     let s = &o.summary;

@@ -277,8 +277,7 @@ pub fn prepare<'a>(
             .collect();
         cand.evaluations += grid.len();
         scored.sort_by(|a, b| a.0.total_cmp(&b.0));
-        let n_starts = if added.iter().any(|p| p.null.is_none()) { opts.starts.max(1) } else { 1 };
-        let picked: Vec<Vec<f64>> = scored.into_iter().take(n_starts).map(|(_, v)| v).collect();
+        let picked = pick_starts(scored, &added, opts.starts);
         if !picked.is_empty() {
             starts = picked;
         }
@@ -332,6 +331,40 @@ pub fn prepare<'a>(
         }
     }
     Prepared { effects, params, added, problem, short, short_dic, cand }
+}
+
+/// Starting points from a scored scan grid (best first; each point is the
+/// whole parameter vector, the effect's `added` parameters last).
+///
+/// Without shape parameters: the best point. With them: the best point of
+/// every combination of shape values, best first, then the next best points
+/// up to `starts` in all. Shape parameters are held during the short-record
+/// stages, so each shape value is its own sub-problem; and the scan runs at
+/// the current calibration, which may have bent to mimic the effect (a
+/// supply droop absorbed into friction and throttle), so that the scan ranks
+/// the weakest grid point first whatever its shape — one start per shape
+/// value keeps the right one in play.
+fn pick_starts(scored: Vec<(f64, Vec<f64>)>, added: &[FitParam], starts: usize) -> Vec<Vec<f64>> {
+    let first = scored.first().map_or(0, |(_, v)| v.len() - added.len());
+    let shape: Vec<usize> = added.iter().enumerate().filter(|(_, p)| p.null.is_none()).map(|(i, _)| first + i).collect();
+    if shape.is_empty() {
+        return scored.into_iter().take(1).map(|(_, v)| v).collect();
+    }
+    let key = |v: &[f64]| -> Vec<u64> { shape.iter().map(|&i| v[i].to_bits()).collect() };
+    let mut seen: Vec<Vec<u64>> = Vec::new();
+    let (mut picked, mut rest) = (Vec::new(), Vec::new());
+    for (_, v) in scored {
+        let k = key(&v);
+        if seen.contains(&k) {
+            rest.push(v);
+        } else {
+            seen.push(k);
+            picked.push(v);
+        }
+    }
+    let more = starts.saturating_sub(picked.len());
+    picked.extend(rest.into_iter().take(more));
+    picked
 }
 
 /// A candidate stopped after phase A.
@@ -433,4 +466,73 @@ pub fn finish<'a>(current: &Structure<'a>, prep: Prepared<'a>, opts: &Options) -
     let short_ref = short_reference(&problem, short.short.as_ref(), &f.values, opts);
     let s = Structure { effects, params, fit: f, heldout: None, short: short_ref };
     (Some(s), cand)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::effects::EffectParam;
+    use crate::params::effect_params;
+
+    #[derive(Debug)]
+    struct Shaped;
+    impl Effect for Shaped {
+        fn name(&self) -> &'static str {
+            "shaped"
+        }
+        fn summary(&self) -> &'static str {
+            "a size with a null and a shape without"
+        }
+        fn params(&self) -> Vec<EffectParam> {
+            vec![
+                EffectParam {
+                    name: "size",
+                    unit: "",
+                    lo: 0.0,
+                    hi: 1.0,
+                    start: 0.5,
+                    typical: 0.5,
+                    null: Some(0.0),
+                    scale: Scale::Linear,
+                    scan: &[],
+                },
+                EffectParam {
+                    name: "shape",
+                    unit: "",
+                    lo: 1.0,
+                    hi: 3.0,
+                    start: 2.0,
+                    typical: 2.0,
+                    null: None,
+                    scale: Scale::Linear,
+                    scan: &[],
+                },
+            ]
+        }
+        fn applies_to(&self, _: &FlatNetlist) -> bool {
+            true
+        }
+        fn apply(&self, _: &mut FlatNetlist, _: &[f64]) -> Result<(), crate::effects::EffectError> {
+            Ok(())
+        }
+    }
+
+    #[test]
+    fn every_shape_value_gets_a_start_even_when_one_shape_ranks_first_throughout() {
+        let added = effect_params(&Shaped, 0);
+        // one calibration value, then (size, shape); the scan ranks shape 3 first at every size
+        let scored = vec![
+            (1.0, vec![9.0, 0.1, 3.0]),
+            (2.0, vec![9.0, 0.2, 3.0]),
+            (3.0, vec![9.0, 0.1, 2.0]),
+            (4.0, vec![9.0, 0.1, 1.0]),
+            (5.0, vec![9.0, 0.2, 1.0]),
+        ];
+        let starts = pick_starts(scored.clone(), &added, 2);
+        assert_eq!(starts, vec![vec![9.0, 0.1, 3.0], vec![9.0, 0.1, 2.0], vec![9.0, 0.1, 1.0]]);
+        // more starts asked for than shapes: the next best points fill up
+        let starts = pick_starts(scored, &added, 4);
+        assert_eq!(starts.len(), 4);
+        assert_eq!(starts[3], vec![9.0, 0.2, 3.0]);
+    }
 }

@@ -14,7 +14,7 @@
 //!   "effects": ["piston_seal_leak", "valve_delay"],
 //!   "max_effects": 2,
 //!   "fit_interval": "4 ms",
-//!   "nuisance": { "offset": true, "gain": false }
+//!   "nuisance": { "offset": true, "gain": false, "skew": "2 ms" }
 //! }
 //! ```
 //!
@@ -30,7 +30,9 @@
 //! - `effects`, `max_effects`, `fit_interval`: restrict the catalogue, the
 //!   number of effects added (default 2), the spacing of fitted samples.
 //! - `nuisance`: which sensor errors are fitted per experiment and channel
-//!   ([`crate::nuisance`]): `offset` (default true), `gain` (default false).
+//!   ([`crate::nuisance`]): `offset` (default true), `gain` (default false),
+//!   and per experiment the bound of the logger time skew, `skew` (default
+//!   2 ms; "0 s" fits none).
 //!
 //! Unknown keys are errors; errors name the file, line and column.
 
@@ -61,13 +63,15 @@ pub struct Manifest {
 }
 
 /// The manifest's `nuisance` entry.
-#[derive(Debug, Clone, Copy, PartialEq, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct NuisanceSpec {
     #[serde(default)]
     pub offset: Option<bool>,
     #[serde(default)]
     pub gain: Option<bool>,
+    #[serde(default)]
+    pub skew: Option<Value>,
 }
 
 /// One experiment of the manifest.
@@ -221,9 +225,16 @@ fn resolve_unescaped(m: &Manifest, flat: &graph::FlatNetlist, read: &ReadData) -
         }
         options.fit_interval = dt;
     }
-    if let Some(n) = m.nuisance {
+    if let Some(n) = &m.nuisance {
         options.sensors.offset = n.offset.unwrap_or(options.sensors.offset);
         options.sensors.gain = n.gain.unwrap_or(options.sensors.gain);
+        if let Some(v) = &n.skew {
+            let dt = seconds(v, "nuisance.skew")?;
+            if dt.is_nan() || !(0.0..=1.0).contains(&dt) {
+                return Err(format!("nuisance.skew must be between 0 s and 1 s, got {dt}"));
+            }
+            options.sensors.skew = dt;
+        }
     }
     Ok(Resolved { experiments, calibrate, options })
 }
@@ -274,7 +285,7 @@ mod tests {
         let flat = crate::netlist_edit::tests_support::meter_out();
         let text = r#"{ "experiments": [ { "data": "a.csv", "set": { "supply.p": "5 bar" }, "columns": { "p1": "head.p" }, "time_origin": 1.0 } ],
                         "calibrate": { "friction.k0": ["1 N", "60 N"] }, "noise": { "head.p": "5 mbar" }, "effects": ["valve_delay"],
-                        "nuisance": { "gain": true } }"#;
+                        "nuisance": { "gain": true, "skew": "2 ms" } }"#;
         let m = parse(text, "m.json").unwrap();
         let csv: String = std::iter::once("t,p1,other\n".to_string())
             .chain((0..50).map(|i| format!("{},{},{}\n", 1.0 + i as f64 * 1e-3, 1e5 + i as f64, i)))
@@ -295,6 +306,15 @@ mod tests {
         assert_eq!(r.calibrate[0].bounds, Some((1.0, 60.0)));
         assert_eq!(r.options.effects, Some(vec!["valve_delay".to_string()]));
         assert!(r.options.sensors.offset && r.options.sensors.gain);
+        assert!((r.options.sensors.skew - 2e-3).abs() < 1e-15);
+        // a skew bound that is not a time in [0, 1 s]
+        for skew in [r#""-1 ms""#, r#""2 bar""#, "5"] {
+            let text = format!(
+                r#"{{ "experiments": [ {{ "data": "a.csv", "columns": {{ "p1": "head.p" }} }} ], "nuisance": {{ "skew": {skew} }} }}"#
+            );
+            let err = resolve(&parse(&text, "m.json").unwrap(), &flat, &read).unwrap_err();
+            assert!(err.contains("skew"), "{err}");
+        }
         // a column mapped to something that is not a signal
         let bad = parse(r#"{ "experiments": [ { "data": "a.csv", "columns": { "p1": "head.pressure" } } ] }"#, "m.json").unwrap();
         let err = resolve(&bad, &flat, &read).unwrap_err();

@@ -96,7 +96,9 @@ pub struct Options {
     pub report: bool,
     /// Step attempts of a candidate's short-record (screening) stages.
     pub screen_iter: usize,
-    /// Starting points tried for effects with shape parameters (best of the scan grid).
+    /// Starting points tried for effects with shape parameters: the best scan
+    /// point of each combination of shape values, and further best points up
+    /// to this many in all.
     pub starts: usize,
     /// A candidate gets its full-record fit only if its short-record ΔIC is
     /// at least this fraction of the best candidate's (both negative) …

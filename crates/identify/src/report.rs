@@ -20,11 +20,11 @@ use crate::candidates::{estimates, problem_for, Candidate, Estimate, Structure};
 use crate::diagnose::{diagnose, Diagnosis, Trace};
 use crate::experiment::Experiment;
 use crate::netlist_edit::{param_si, Topology};
-use crate::nuisance::{standard_errors, SensorModel};
+use crate::nuisance::{skew_standard_error, standard_errors, SensorModel};
 use crate::options::{Options, Thresholds};
 use crate::params::Target;
 use crate::phases::{classify, Phase};
-use crate::problem::{channel_residuals, column_at, sample_channels, SimSettings};
+use crate::problem::{channel_residuals, column_at, Sampler, SimSettings};
 use crate::selection::Selected;
 use crate::stats::{information_criterion, integrated_time};
 use graph::FlatNetlist;
@@ -43,6 +43,11 @@ pub struct SensorEstimate {
     /// Relative gain error and its 95 % interval (0 and `None` when not fitted).
     pub gain: f64,
     pub gain_ci95: Option<(f64, f64)>,
+    /// The experiment's logger time skew δ [s] (shared by its channels; a
+    /// sample stamped t was taken at t − δ) and its 95 % interval (0 and
+    /// `None` when not fitted).
+    pub time_skew: f64,
+    pub time_skew_ci95: Option<(f64, f64)>,
 }
 
 /// Correlation of one channel's residuals (pooled over experiments).
@@ -214,13 +219,18 @@ fn trace_of(
     let e = &problem.experiments[k];
     let result = problem.simulate(k, &s.fit.values, e.median_interval())?;
     let all: Vec<usize> = (0..e.times.len()).collect();
-    let raw = sample_channels(&result, e, &all)?;
+    let sampler = Sampler::new(&result, e, &all)?;
+    let (raw, skew) = sampler.best(sensors);
     let mut simulated = Vec::new();
     let mut est = Vec::new();
+    let (mut sum_r2, mut n_r, mut taus) = (0.0, 0usize, Vec::new());
     for (ch, sim) in e.channels.iter().zip(&raw) {
         let (r, fit) = channel_residuals(&ch.values, &all, sim, ch.sigma, sensors);
         let ms = r.iter().map(|x| x * x).sum::<f64>() / r.len().max(1) as f64;
         let tau = integrated_time(&r);
+        sum_r2 += ms * r.len() as f64;
+        n_r += r.len();
+        taus.push(tau);
         let paired: Vec<f64> = all.iter().filter(|&&i| ch.values[i].is_some()).filter_map(|&i| sim[i]).collect();
         let (se_o, se_g) = standard_errors(&paired, ch.sigma, ms, tau, sensors);
         let ci = |v: f64, se: Option<f64>| se.map(|s| (v - 1.96 * s, v + 1.96 * s));
@@ -231,8 +241,17 @@ fn trace_of(
             offset_ci95: ci(fit.offset, se_o),
             gain: fit.gain,
             gain_ci95: ci(fit.gain, se_g),
+            time_skew: skew,
+            time_skew_ci95: None,
         });
         simulated.push(sim.iter().map(|v| v.map(|y| fit.offset + (1.0 + fit.gain) * y)).collect());
+    }
+    if sensors.skew > 0.0 && n_r > 0 {
+        let tau = taus.iter().sum::<f64>() / taus.len().max(1) as f64;
+        let se = skew_standard_error(skew, sensors.skew, sum_r2 / n_r as f64, tau, |d| sampler.cost(d, sensors));
+        for x in &mut est {
+            x.time_skew_ci95 = se.map(|s| (skew - 1.96 * s, skew + 1.96 * s));
+        }
     }
     let ph = match phases {
         Some(p) => p[k].clone(),

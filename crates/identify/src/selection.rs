@@ -252,11 +252,23 @@ pub fn search<'a>(
             |p: &[crate::candidates::Prepared]| p.iter().map(|p| p.short_dic).filter(|d| d.is_finite()).fold(f64::INFINITY, f64::min);
         let mut best_short = best(&preps);
         // Rescue (first round): the baseline's full-record calibration did not
-        // converge and no candidate improved on the short records; start the
-        // candidates from the baseline's short-record optimum instead (a
-        // strong missing effect drags the full-record calibration away).
-        if current.effects.is_empty() && !current.fit.converged && best_short >= 0.0 && current.short.is_some() {
-            preps = tried.par_iter().map(|e| prepare(base, experiments, &current, *e, Pass { round, rescue: true }, opts)).collect();
+        // converge; every candidate is prepared again from the baseline's
+        // short-record optimum (a strong missing effect drags the
+        // full-record calibration away, and a scan at that calibration ranks
+        // the effect's weakest grid point first), and the better of its two
+        // preparations is kept. Not only when no candidate improved: a wrong
+        // candidate can improve a little on the bent calibration, which
+        // then screens out the right one by the relative test.
+        if current.effects.is_empty() && !current.fit.converged && current.short.is_some() {
+            let again: Vec<_> =
+                tried.par_iter().map(|e| prepare(base, experiments, &current, *e, Pass { round, rescue: true }, opts)).collect();
+            for (i, p) in again.into_iter().enumerate() {
+                let spent = preps[i].cand.evaluations + p.cand.evaluations;
+                if p.short_dic < preps[i].short_dic || preps[i].short_dic.is_nan() {
+                    preps[i] = p;
+                }
+                preps[i].cand.evaluations = spent;
+            }
             best_short = best(&preps);
         }
         // the screen: improvement on the short records, relative to the best, and the best few

@@ -23,7 +23,9 @@
 //! The long matrix (every case, several seeds, nominal and varied model
 //! forms, three cycles) is `full_matrix`, ignored here:
 //! `cargo test --release -p pneumo-identify --test independent -- --ignored --nocapture`
-//! (its table is in docs/discrepancy.md).
+//! (its table is in docs/discrepancy.md; `SEEDS=n` seeds per case,
+//! `VARIATION=nominal` or `varied` one half only, `OPT_IN=1` with the
+//! throttle's subsonic index calibrated and a 2 ms logger skew fitted).
 
 mod truth;
 
@@ -36,8 +38,13 @@ fn run(case: Case, seed: u64, variation: Variation, cycles: usize) -> (truth::Tr
     let records = truth::records(&t, seed, cycles).expect("the rig simulates");
     let experiments = truth::experiments(&records).expect("the records are experiments");
     let model = truth::model(case);
-    let calibrate = identify::params::default_calibration(&model);
-    let options = identify::Options { report: false, ..identify::Options::default() };
+    let mut calibrate = identify::params::default_calibration(&model);
+    let mut options = identify::Options { report: false, ..identify::Options::default() };
+    // OPT_IN=1: the documented opt-ins, the throttle's subsonic index and a 2 ms logger skew
+    if std::env::var("OPT_IN").is_ok() {
+        calibrate.push(identify::params::CalibSpec { target: "flow_control.m".into(), bounds: Some((0.35, 0.7)) });
+        options.sensors.skew = 2e-3;
+    }
     let o = identify::run(&model, &experiments, &calibrate, &options).expect("the workflow runs");
     (t, o)
 }
@@ -113,12 +120,17 @@ fn seeds() -> u64 {
 #[ignore = "long matrix: run with --release -- --ignored --nocapture"]
 fn full_matrix() {
     let mut lines = Vec::new();
-    for variation in [Variation::Nominal, Variation::Varied] {
+    // VARIATION=nominal or varied runs one half of the matrix
+    let wanted = std::env::var("VARIATION").unwrap_or_default();
+    let variations = [Variation::Nominal, Variation::Varied];
+    for variation in variations.into_iter().filter(|v| wanted.is_empty() || format!("{v:?}").eq_ignore_ascii_case(&wanted)) {
         for case in Case::ALL {
             let (mut exact, mut total) = (0, 0);
             let mut confusions = std::collections::BTreeMap::<String, usize>::new();
             for seed in 1..=seeds() {
+                let clock = std::time::Instant::now();
                 let (_, o) = run(case, seed, variation, 3);
+                let seconds = clock.elapsed().as_secs_f64();
                 let got = named(&o).join("+");
                 let want = case.expected().join("+");
                 total += 1;
@@ -127,7 +139,7 @@ fn full_matrix() {
                 }
                 let key = if o.summary.ambiguous.is_empty() { got } else { format!("ambiguous {}", o.summary.ambiguous.join("/")) };
                 *confusions.entry(if key.is_empty() { "none".into() } else { key }).or_default() += 1;
-                eprintln!("{variation:?} {} seed {seed}: {}", case.name(), o.summary.verdict);
+                eprintln!("{variation:?} {} seed {seed} ({seconds:.0} s): {}", case.name(), o.summary.verdict);
             }
             let line = format!("| {variation:?} | {} | {exact}/{total} | {confusions:?} |", case.name());
             eprintln!("{line}");
