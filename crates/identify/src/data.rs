@@ -225,22 +225,8 @@ pub fn parse_csv(text: &str, origin: &str) -> Result<Dataset, DataError> {
 /// Linear interpolation of (times, values) at `t`; values beyond the ends
 /// are held; a missing value next to `t` gives its defined neighbour.
 pub fn interpolate(times: &[f64], values: &[Option<f64>], t: f64) -> Option<f64> {
-    if times.is_empty() {
-        return None;
-    }
     let k = times.partition_point(|&u| u <= t);
-    if k == 0 {
-        return values[0];
-    }
-    if k >= times.len() {
-        return values[times.len() - 1];
-    }
-    let (t0, t1) = (times[k - 1], times[k]);
-    match (values[k - 1], values[k]) {
-        (Some(a), Some(b)) if t1 > t0 => Some(a + (b - a) * (t - t0) / (t1 - t0)),
-        (Some(a), _) => Some(a),
-        (None, b) => b,
-    }
+    between(times, values, k, t, |_, _, a, b, x| a + (b - a) * x)
 }
 
 /// [`interpolate`] at many times `at`, in one pass when they increase (as
@@ -248,27 +234,8 @@ pub fn interpolate(times: &[f64], values: &[Option<f64>], t: f64) -> Option<f64>
 pub fn interpolate_many(times: &[f64], values: &[Option<f64>], at: impl Iterator<Item = f64>) -> Vec<Option<f64>> {
     let mut k = 0;
     at.map(|t| {
-        if times.is_empty() {
-            return None;
-        }
-        if k > 0 && times[k - 1] > t {
-            k = times.partition_point(|&u| u <= t);
-        }
-        while k < times.len() && times[k] <= t {
-            k += 1;
-        }
-        if k == 0 {
-            return values[0];
-        }
-        if k >= times.len() {
-            return values[times.len() - 1];
-        }
-        let (t0, t1) = (times[k - 1], times[k]);
-        match (values[k - 1], values[k]) {
-            (Some(a), Some(b)) if t1 > t0 => Some(a + (b - a) * (t - t0) / (t1 - t0)),
-            (Some(a), _) => Some(a),
-            (None, b) => b,
-        }
+        k = next_index(times, k, t);
+        between(times, values, k, t, |_, _, a, b, x| a + (b - a) * x)
     })
     .collect()
 }
@@ -277,7 +244,7 @@ pub fn interpolate_many(times: &[f64], values: &[Option<f64>], at: impl Iterator
 /// with finite-difference slopes (Catmull–Rom on an uneven grid), so that
 /// the value is continuously differentiable in the query time: a fit that
 /// shifts the query times (the logger skew of [`crate::nuisance`]) then sees
-/// a smooth cost. Falls back to linear where a neighbour is missing.
+/// a smooth cost. Linear where a neighbour needed for a slope is missing.
 pub fn interpolate_many_smooth(times: &[f64], values: &[Option<f64>], at: impl Iterator<Item = f64>) -> Vec<Option<f64>> {
     let n = times.len();
     let slope = |k: usize| -> Option<f64> {
@@ -290,44 +257,49 @@ pub fn interpolate_many_smooth(times: &[f64], values: &[Option<f64>], at: impl I
     };
     let mut k = 0;
     at.map(|t| {
-        if n == 0 {
-            return None;
-        }
-        if k > 0 && times[k - 1] > t {
-            k = times.partition_point(|&u| u <= t);
-        }
-        while k < n && times[k] <= t {
-            k += 1;
-        }
-        if k == 0 {
-            return values[0];
-        }
-        if k >= n {
-            return values[n - 1];
-        }
-        let (t0, t1) = (times[k - 1], times[k]);
-        match (values[k - 1], values[k]) {
-            (Some(a), Some(b)) if t1 > t0 => {
-                let h = t1 - t0;
-                let x = (t - t0) / h;
-                match (slope(k - 1), slope(k)) {
-                    (Some(ma), Some(mb)) => {
-                        let (x2, x3) = (x * x, x * x * x);
-                        Some(
-                            (2.0 * x3 - 3.0 * x2 + 1.0) * a
-                                + (x3 - 2.0 * x2 + x) * h * ma
-                                + (-2.0 * x3 + 3.0 * x2) * b
-                                + (x3 - x2) * h * mb,
-                        )
-                    }
-                    _ => Some(a + (b - a) * x),
-                }
+        k = next_index(times, k, t);
+        between(times, values, k, t, |k0, h, a, b, x| match (slope(k0), slope(k0 + 1)) {
+            (Some(ma), Some(mb)) => {
+                let (x2, x3) = (x * x, x * x * x);
+                (2.0 * x3 - 3.0 * x2 + 1.0) * a + (x3 - 2.0 * x2 + x) * h * ma + (-2.0 * x3 + 3.0 * x2) * b + (x3 - x2) * h * mb
             }
-            (Some(a), _) => Some(a),
-            (None, b) => b,
-        }
+            _ => a + (b - a) * x,
+        })
     })
     .collect()
+}
+
+/// The number of grid times ≤ `t`, walking on from `k` (the answer for an
+/// earlier query) when the queries increase, searching otherwise.
+fn next_index(times: &[f64], mut k: usize, t: f64) -> usize {
+    if k > 0 && times[k - 1] > t {
+        k = times.partition_point(|&u| u <= t);
+    }
+    while k < times.len() && times[k] <= t {
+        k += 1;
+    }
+    k
+}
+
+/// The value at `t` given k = the number of grid times ≤ `t`: held beyond
+/// the ends, `curve(k − 1, h, y₀, y₁, x)` inside the segment [t₀, t₁] of
+/// length h at the fraction x, a defined neighbour where one value is missing.
+fn between(times: &[f64], values: &[Option<f64>], k: usize, t: f64, curve: impl Fn(usize, f64, f64, f64, f64) -> f64) -> Option<f64> {
+    if times.is_empty() {
+        return None;
+    }
+    if k == 0 {
+        return values[0];
+    }
+    if k >= times.len() {
+        return values[times.len() - 1];
+    }
+    let (t0, t1) = (times[k - 1], times[k]);
+    match (values[k - 1], values[k]) {
+        (Some(a), Some(b)) if t1 > t0 => Some(curve(k - 1, t1 - t0, a, b, (t - t0) / (t1 - t0))),
+        (Some(a), _) => Some(a),
+        (None, b) => b,
+    }
 }
 
 /// Robust white-noise standard deviation of one channel (see the module
@@ -365,6 +337,31 @@ mod tests {
         let one: Vec<Option<f64>> = at.iter().map(|&t| interpolate(&times, &values, t)).collect();
         assert_eq!(many, one);
         assert!(interpolate_many(&[], &[], [1.0].into_iter()).iter().all(Option::is_none));
+    }
+
+    #[test]
+    fn the_smooth_interpolation_is_exact_for_a_parabola_and_has_no_kink_at_grid_points() {
+        // central-difference slopes are exact for a quadratic, so the Hermite curve is the parabola itself
+        let times: Vec<f64> = (0..8).map(|i| 0.5 * i as f64).collect();
+        let values: Vec<Option<f64>> = times.iter().map(|t| Some(3.0 * t * t - t + 2.0)).collect();
+        let at = [0.6, 1.25, 1.5, 2.2, 2.9];
+        let smooth = interpolate_many_smooth(&times, &values, at.iter().copied());
+        for (t, v) in at.iter().zip(&smooth) {
+            assert!((v.unwrap() - (3.0 * t * t - t + 2.0)).abs() < 1e-12, "{t}: {v:?}");
+        }
+        // the linear one is not (that is the point of the smooth one)
+        let linear = interpolate_many(&times, &values, [1.25].into_iter());
+        assert!((linear[0].unwrap() - (3.0 * 1.5625 - 1.25 + 2.0)).abs() > 0.1);
+        // one-sided slopes agree at a grid point (the curve is C¹)
+        let values: Vec<Option<f64>> = times.iter().map(|t| Some((2.0 * t).sin())).collect();
+        let h = 1e-6;
+        let v = interpolate_many_smooth(&times, &values, [1.5 - h, 1.5, 1.5 + h].into_iter());
+        let (left, right) = ((v[1].unwrap() - v[0].unwrap()) / h, (v[2].unwrap() - v[1].unwrap()) / h);
+        assert!((left - right).abs() < 1e-4, "{left} {right}");
+        // a missing neighbour falls back to linear, ends are held
+        let gaps = [Some(0.0), Some(1.0), None, Some(3.0)];
+        let v = interpolate_many_smooth(&[0.0, 1.0, 2.0, 3.0], &gaps, [0.5, -1.0, 4.0].into_iter());
+        assert_eq!(v, vec![Some(0.5), Some(0.0), Some(3.0)]);
     }
 
     #[test]
