@@ -83,7 +83,7 @@ fn every_path_in_the_codemap_exists() {
                 }
             } else if token.starts_with("src/") {
                 continue;
-            } else if ["crates/", "models/", "tests/", "docs/", ".ci/"].iter().any(|p| token.starts_with(p)) {
+            } else if ["crates/", "models/", "tests/", "docs/", ".ci/", "scripts/"].iter().any(|p| token.starts_with(p)) {
                 root.join(token)
             } else {
                 continue;
