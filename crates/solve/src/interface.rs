@@ -80,7 +80,7 @@ impl Model {
 }
 
 /// A number as people read it: 4, 0.25, 1e300 (not 300 digits).
-fn readable(x: f64) -> String {
+pub(crate) fn readable(x: f64) -> String {
     if x != 0.0 && (x.abs() >= 1e6 || x.abs() < 1e-4) {
         format!("{x:e}")
     } else {

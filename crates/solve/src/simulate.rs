@@ -172,13 +172,14 @@ impl FinalState {
     }
 }
 
-fn mode_name(mode: Mode) -> &'static str {
+pub(crate) fn mode_name(mode: Mode) -> &'static str {
     match mode {
         Mode::Sliding { dir } if dir > 0.0 => "sliding, extending",
         Mode::Sliding { .. } => "sliding, retracting",
         Mode::Held { may_extend: false, .. } => "at the upper stop",
         Mode::Held { may_retract: false, .. } => "at the lower stop",
         Mode::Held { .. } => "stuck",
+        Mode::SlidingViscous => "sliding about v = 0 (viscous friction only)",
     }
 }
 
