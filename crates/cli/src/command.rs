@@ -3,7 +3,7 @@
 //! exit statuses. Used by the binary (`src/main.rs`) and by the Python
 //! package (`python -m pneumo`), so both are the same program.
 
-use crate::args::{check, conductance, discrepancy, plot, simulate, sweep};
+use crate::args::{check, conductance, discrepancy, linearize, plot, simulate, sweep};
 use clap::{Parser, Subcommand};
 use pneumo_app::error::one_line;
 use pneumo_app::load;
@@ -38,6 +38,8 @@ enum Command {
     Conductance(conductance::ConductanceArgs),
     /// Find where simulation and measurement disagree, name the missing effect, add it, show the gap shrink.
     Discrepancy(discrepancy::DiscrepancyArgs),
+    /// Linear model (A, B, C, D), modes and Bode data about an operating point.
+    Linearize(linearize::LinearizeArgs),
     /// Print the JSON Schema of the netlist format.
     Schema,
     /// List the block types and their parameters.
@@ -65,6 +67,7 @@ where
         Command::Plot(a) => plot::run(a),
         Command::Conductance(a) => conductance::run(a),
         Command::Discrepancy(a) => discrepancy::run(a),
+        Command::Linearize(a) => linearize::run(a),
         Command::Schema => {
             println!("{}", serde_json::to_string_pretty(&graph::netlist::schema()).unwrap_or_default());
             Ok(())
