@@ -54,7 +54,7 @@ pub fn prepare(mut flat: FlatNetlist, spec: &RunSpec) -> Result<Prepared, AppErr
     }
     if let Some(t) = spec.t_end {
         if !(t > 0.0 && t.is_finite()) {
-            return Err(AppError::Usage(format!("--t-end must be > 0 s, got {t}")));
+            return Err(AppError::Usage(format!("--t-end must be > 0 s, got {}", units::show::num(t))));
         }
         opts.t_end = t;
         // an explicit end time without --cycles runs to that time

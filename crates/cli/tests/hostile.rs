@@ -37,11 +37,28 @@ fn fails_cleanly(dir: &Scratch, args: &[&str], needles: &[&str]) -> String {
     assert_eq!(errors.len(), 1, "pneumo {args:?}: want one error line, got:\n{err}");
     assert!(errors[0].starts_with("error: "), "{err}");
     assert!(!errors[0].contains('\u{1b}'), "terminal escape echoed: {err:?}");
+    for line in err.lines() {
+        assert_readable(line);
+    }
     for n in needles {
         assert!(errors[0].contains(n), "pneumo {args:?}: message lacks {n:?}: {err}");
     }
     assert_eq!(snapshot(&dir.0), before, "pneumo {args:?} changed the files of its folder");
     errors[0].to_string()
+}
+
+/// Longest line of a message [bytes]: one line a person reads, whatever the input held.
+const MAX_LINE: usize = 1000;
+
+/// One short line with no number spelled out in dozens of digits (1e300 as
+/// 300 digits, 5e-324 as a line of zeros).
+fn assert_readable(line: &str) {
+    assert!(line.len() <= MAX_LINE, "a {}-byte line: {}…", line.len(), line.chars().take(300).collect::<String>());
+    let mut run = 0;
+    for c in line.chars() {
+        run = if c.is_ascii_digit() { run + 1 } else { 0 };
+        assert!(run < 30, "a number spelled out in {run}+ digits: {}…", line.chars().take(300).collect::<String>());
+    }
 }
 
 fn model() -> PathBuf {
@@ -125,7 +142,7 @@ fn absurd_physical_values_are_rejected_at_load() {
 fn endless_or_huge_input_files_are_refused() {
     let dir = Scratch::new("devzero");
     if Path::new("/dev/zero").exists() {
-        fails_cleanly(&dir, &["check", "/dev/zero"], &["/dev/zero", "MiB"]);
+        fails_cleanly(&dir, &["check", "/dev/zero"], &["/dev/zero", "character device"]);
     }
     // a corrupt shard claiming 1e14 cases
     std::fs::write(dir.path("s.csv"), "case,n_cases,a.x,cycle1_total_s,error\n0,100000000000000,1,2,\n").unwrap();
@@ -238,4 +255,28 @@ fn a_manifest_cannot_make_pneumo_read_and_quote_files_outside_its_folder() {
     let m = model();
     let err = fails_cleanly(&dir, &["discrepancy", m.to_str().unwrap(), "--experiments", "exp/e.json"], &["outside the manifest's folder"]);
     assert!(!err.contains("root:x"), "{err}");
+}
+
+// ------------------------------------------------------------------ issue 27: the last hostile inputs
+
+#[test]
+fn set_with_a_100_kb_value_is_echoed_short_and_extreme_numbers_print_readably() {
+    let dir = Scratch::new("longset");
+    let m = local_model(&dir);
+    let digits = "1".repeat(100_000);
+    let err = fails_cleanly(&dir, &["check", &m, "--set", &format!("supply.p={digits}")], &["supply"]);
+    assert!(err.len() < 600, "{} bytes: {err}", err.len());
+    let junk = format!("supply.p=4 {}", "x".repeat(100_000));
+    let err = fails_cleanly(&dir, &["check", &m, "--set", &junk], &["characters)"]);
+    assert!(err.len() < 600, "{} bytes: {err}", err.len());
+    // warnings and errors about extreme values: each one short line, the number as 1e300 / 5e-324
+    for (set, shown) in
+        [("head.bore=1e300", "1e300"), ("supply.p=5e-324", "5e-324"), ("head.dead_volume=5e-324", "5e-324"), ("piston.mass=1e300", "")]
+    {
+        let out = pneumo(&dir.0, &["check", &m, "--set", set]);
+        let err = text(&out.stderr);
+        assert!(matches!(out.status.code(), Some(0..=2)), "{set}: {err}");
+        err.lines().for_each(assert_readable);
+        assert!(err.contains(shown), "{set}: {err}");
+    }
 }

@@ -93,7 +93,7 @@ pub fn parse(text: &str, origin: &str) -> Result<Netlist, GraphError> {
 
 /// Load, parse and expand the netlist at `path`.
 pub fn load(loader: &dyn Loader, path: &Path) -> Result<FlatNetlist, GraphError> {
-    let text = loader.read(path).map_err(|message| GraphError::Io { file: path.display().to_string(), message })?;
+    let text = loader.read(path).map_err(|message| GraphError::Io { file: crate::escape(&path.display().to_string()), message })?;
     let netlist = parse(&text, &path.display().to_string())?;
     expand(loader, &netlist, path, &mut vec![path.to_path_buf()])
 }
@@ -107,7 +107,7 @@ pub fn flatten(loader: &dyn Loader, netlist: &Netlist, dir: &Path, depth: usize)
 }
 
 fn valid_user_id(id: &str) -> bool {
-    !id.is_empty() && id.chars().all(|c| c.is_ascii_alphanumeric() || c == '_' || c == '-')
+    !id.is_empty() && id.len() <= crate::MAX_NAME_CHARS && id.chars().all(|c| c.is_ascii_alphanumeric() || c == '_' || c == '-')
 }
 
 /// Expand `netlist`, read from `file`; `chain` lists the files including it (itself last).
@@ -177,7 +177,7 @@ fn expand(loader: &dyn Loader, netlist: &Netlist, file: &Path, chain: &mut Vec<P
             };
             return Err(GraphError::Subsystem { id: c.id.clone(), message: format!("{why}: {}", files.join(" -> ")) });
         }
-        let text = loader.read(&path).map_err(|message| GraphError::Io { file: path.display().to_string(), message })?;
+        let text = loader.read(&path).map_err(|message| GraphError::Io { file: crate::escape(&path.display().to_string()), message })?;
         let sub = parse(&text, &path.display().to_string())?;
         chain.push(path.clone());
         let inner = expand(loader, &sub, &path, chain)?;

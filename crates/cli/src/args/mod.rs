@@ -13,7 +13,7 @@ pub fn print_warnings(warnings: &[graph::Warning]) {
     let mut seen = std::collections::BTreeSet::new();
     for w in warnings {
         if seen.insert(w) {
-            eprintln!("warning: {}", graph::escape(&w.to_string()));
+            eprintln!("warning: {}", pneumo_app::error::one_line(&w.to_string()));
         }
     }
 }
