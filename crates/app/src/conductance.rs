@@ -168,8 +168,8 @@ pub fn conductance(a: &ConductanceOptions) -> Result<ConductanceReport, AppError
 
 /// Read the discharge CSV; every error names the file and line.
 pub fn read_discharge_csv(path: &Path) -> Result<DischargeData, AppError> {
-    let text = std::fs::read_to_string(path).map_err(|e| AppError::io(path, e))?;
-    parse_discharge_csv(&text, &path.display().to_string())
+    let text = crate::load::read_input_text(path, "data").map_err(|e| AppError::io(path, e))?;
+    parse_discharge_csv(&text, &crate::error::shown_path(path))
 }
 
 fn parse_discharge_csv(text: &str, origin: &str) -> Result<DischargeData, AppError> {

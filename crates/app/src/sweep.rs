@@ -941,7 +941,7 @@ pub fn merge(o: &MergeOptions) -> Result<usize, AppError> {
     outputs.check_targets(&[&o.out])?;
     let mut tables = Vec::with_capacity(o.inputs.len());
     for path in &o.inputs {
-        let text = std::fs::read_to_string(path).map_err(|e| AppError::io(path, e))?;
+        let text = crate::load::read_input_text(path, "sweep result").map_err(|e| AppError::io(path, e))?;
         let t = if is_json(path) { read_json(path, &text)? } else { read_csv(path, &text)? };
         if t.header.len() < 2 || t.header[0] != "case" || t.header[1] != "n_cases" {
             return Err(AppError::io(path, "the first columns are not \"case,n_cases\" (not written by pneumo sweep?)"));

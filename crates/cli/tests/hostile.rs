@@ -260,6 +260,31 @@ fn a_manifest_cannot_make_pneumo_read_and_quote_files_outside_its_folder() {
 // ------------------------------------------------------------------ issue 27: the last hostile inputs
 
 #[test]
+fn device_files_and_fifos_as_data_or_netlist_files_are_refused_unread() {
+    let dir = Scratch::new("devices");
+    let m = local_model(&dir);
+    if Path::new("/dev/zero").exists() {
+        fails_cleanly(&dir, &["check", "/dev/zero"], &["/dev/zero", "character device", "netlist"]);
+        fails_cleanly(&dir, &["conductance", "--volume", "1 L", "--data", "/dev/zero"], &["/dev/zero", "character device", "data"]);
+        fails_cleanly(&dir, &["plot", "/dev/zero", "-o", "p.png"], &["/dev/zero", "character device"]);
+        fails_cleanly(&dir, &["merge", "/dev/zero", "--out", "x.csv"], &["/dev/zero", "character device"]);
+        fails_cleanly(&dir, &["discrepancy", &m, "--experiments", "/dev/zero"], &["/dev/zero"]);
+    }
+    // a named pipe with no writer: opening it would block forever
+    #[cfg(unix)]
+    {
+        let fifo = dir.path("pipe.json");
+        let c = std::ffi::CString::new(fifo.to_str().unwrap()).unwrap();
+        // SAFETY: mkfifo reads a NUL-terminated path and creates a file; nothing else
+        assert_eq!(unsafe { libc::mkfifo(c.as_ptr(), 0o600) }, 0, "mkfifo");
+        fails_cleanly(&dir, &["check", "pipe.json"], &["pipe.json", "named pipe"]);
+        fails_cleanly(&dir, &["conductance", "--volume", "1 L", "--data", "pipe.json"], &["pipe.json", "named pipe"]);
+    }
+    std::fs::create_dir_all(dir.path("folder.json")).unwrap();
+    fails_cleanly(&dir, &["check", "folder.json"], &["folder.json", "directory"]);
+}
+
+#[test]
 fn set_with_a_100_kb_value_is_echoed_short_and_extreme_numbers_print_readably() {
     let dir = Scratch::new("longset");
     let m = local_model(&dir);
@@ -279,4 +304,32 @@ fn set_with_a_100_kb_value_is_echoed_short_and_extreme_numbers_print_readably() 
         err.lines().for_each(assert_readable);
         assert!(err.contains(shown), "{set}: {err}");
     }
+}
+
+#[test]
+fn a_50_mb_netlist_follows_the_memory_budget_and_names_its_unknown_type() {
+    /// The meter-out netlist with a description of `description_bytes` and
+    /// `extra` more chambers, the last of type `last_type`.
+    fn big_netlist(description_bytes: usize, extra: usize, last_type: &str) -> String {
+        let mut v: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(model()).unwrap()).unwrap();
+        v["description"] = serde_json::Value::from("long description ".repeat(description_bytes / 17 + 1));
+        let comps = v["components"].as_array_mut().unwrap();
+        for i in 0..extra {
+            let kind = if i + 1 == extra { last_type } else { "chamber" };
+            comps.push(serde_json::json!({ "id": format!("extra{i}"), "type": kind, "params": { "dead_volume": "1 L" } }));
+        }
+        serde_json::to_string(&v).unwrap()
+    }
+
+    let dir = Scratch::new("bignetlist");
+    let _ = local_model(&dir);
+    // 50 MB of description: read and checked (within the default --max-memory)
+    dir.write("long.json", &big_netlist(50_000_000, 0, "chamber"));
+    let out = pneumo(&dir.0, &["check", "long.json"]);
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    // thousands of components with one unknown type, padded to 50 MB: the type is named
+    dir.write("unknown.json", &big_netlist(50_000_000, 5000, "warp_drive"));
+    fails_cleanly(&dir, &["check", "unknown.json"], &["warp_drive"]);
+    // a budget too small for the file: refused unread, naming the setting that raises it
+    fails_cleanly(&dir, &["--max-memory", "64", "check", "long.json"], &["long.json", "MiB", "--max-memory"]);
 }
