@@ -307,6 +307,15 @@ fn set_with_a_100_kb_value_is_echoed_short_and_extreme_numbers_print_readably() 
 }
 
 #[test]
+fn set_with_nothing_before_the_equals_shows_the_expected_form() {
+    let dir = Scratch::new("emptyset");
+    let m = local_model(&dir);
+    fails_cleanly(&dir, &["check", &m, "--set", "=4 bar"], &["ID.PARAM=VALUE", "supply.p=6 bar"]);
+    fails_cleanly(&dir, &["check", &m, "--set", "4 bar"], &["ID.PARAM=VALUE"]);
+    fails_cleanly(&dir, &["check", &m, "--set", "nosuchthing=4 bar"], &["nosuchthing", "ID.PARAM=VALUE"]);
+}
+
+#[test]
 fn a_50_mb_netlist_follows_the_memory_budget_and_names_its_unknown_type() {
     /// The meter-out netlist with a description of `description_bytes` and
     /// `extra` more chambers, the last of type `last_type`.
