@@ -260,6 +260,23 @@ fn a_manifest_cannot_make_pneumo_read_and_quote_files_outside_its_folder() {
 // ------------------------------------------------------------------ issue 27: the last hostile inputs
 
 #[test]
+fn sweep_jobs_100000_with_one_case_runs_on_a_bounded_pool() {
+    let dir = Scratch::new("jobs");
+    let m = local_model(&dir);
+    let start = std::time::Instant::now();
+    let out = pneumo(&dir.0, &["sweep", &m, "--vary", "supply.p=4 bar", "--jobs", "100000", "--cycles", "1", "--out", "r.csv"]);
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    let rows = std::fs::read_to_string(dir.path("r.csv")).unwrap();
+    assert_eq!(rows.lines().count(), 2, "{rows}");
+    // (no assertion on wall time; the 60 s limit of every run catches a hang)
+    println!("--jobs 100000, one case: {:.2} s", start.elapsed().as_secs_f64());
+    for jobs in ["0", "-3", "many"] {
+        let err = fails_cleanly(&dir, &["sweep", &m, "--vary", "supply.p=4 bar", "--jobs", jobs], &["--jobs"]);
+        assert!(err.contains(jobs), "{err}");
+    }
+}
+
+#[test]
 fn device_files_and_fifos_as_data_or_netlist_files_are_refused_unread() {
     let dir = Scratch::new("devices");
     let m = local_model(&dir);

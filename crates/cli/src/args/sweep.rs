@@ -21,8 +21,9 @@ pub struct SweepArgs {
     /// End time of each case [s].
     #[arg(long = "t-end", value_name = "SECONDS")]
     pub t_end: Option<f64>,
-    /// Worker threads (default: the available parallelism).
-    #[arg(long, value_name = "N")]
+    /// Most worker threads (default: the available parallelism); never more
+    /// than the cases, nor than 4 per available core.
+    #[arg(long, value_name = "N", value_parser = super::at_least_one::<usize>, allow_negative_numbers = true)]
     pub jobs: Option<usize>,
     /// Run only shard K of N (1-based K): the cases whose index mod N is K-1.
     #[arg(long, value_name = "K/N")]
