@@ -40,6 +40,9 @@ pub struct Prepared {
 
 /// Apply overrides, build the circuit and settle the run settings.
 pub fn prepare(mut flat: FlatNetlist, spec: &RunSpec) -> Result<Prepared, AppError> {
+    if spec.cycles == Some(0) {
+        return Err(AppError::Usage("--cycles must be at least 1: zero cycles is not a run (give --t-end to run for a time)".into()));
+    }
     for s in &spec.sets {
         graph::apply_set(&mut flat, s)?;
     }

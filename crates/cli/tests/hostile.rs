@@ -324,6 +324,27 @@ fn set_with_a_100_kb_value_is_echoed_short_and_extreme_numbers_print_readably() 
 }
 
 #[test]
+fn cycles_0_is_refused_with_the_usage_status() {
+    let dir = Scratch::new("cycles0");
+    let m = local_model(&dir);
+    for args in [
+        vec!["simulate", m.as_str(), "--cycles", "0", "--out", "r.csv"],
+        vec!["sweep", m.as_str(), "--vary", "supply.p=4 bar", "--cycles", "0", "--out", "r.csv"],
+        vec!["simulate", m.as_str(), "--cycles", "-1"],
+    ] {
+        let before = snapshot(&dir.0);
+        let out = pneumo(&dir.0, &args);
+        let err = text(&out.stderr);
+        assert_eq!(out.status.code(), Some(2), "{args:?}: {err}");
+        assert_eq!(err.lines().count(), 1, "{err}");
+        assert!(err.contains("--cycles") && err.contains("at least 1") || err.contains("-1"), "{err}");
+        assert_eq!(snapshot(&dir.0), before);
+    }
+    // the same in the netlist's own settings
+    fails_cleanly(&dir, &["simulate", &m, "--set", "simulation.cycles=0", "--out", "r.csv"], &["cycles", "at least 1"]);
+}
+
+#[test]
 fn set_with_nothing_before_the_equals_shows_the_expected_form() {
     let dir = Scratch::new("emptyset");
     let m = local_model(&dir);

@@ -32,6 +32,9 @@ fn seconds(v: &Option<Value>, name: &str, default: f64) -> Result<f64, SolveErro
 /// generous limit of 60 s per cycle.
 pub fn options_from(sim: &Simulation) -> Result<SimOptions, SolveError> {
     let cycles = sim.cycles;
+    if cycles == Some(0) {
+        return Err(SolveError::Settings("simulation.cycles must be at least 1 (leave it out to run to t_end)".into()));
+    }
     let default_end = match cycles {
         Some(n) => 60.0 * n.max(1) as f64,
         None => 10.0,

@@ -15,8 +15,8 @@ pub struct SweepArgs {
     /// Override a parameter in every case: ID.PARAM=VALUE.
     #[arg(long = "set", value_name = "ID.PARAM=VALUE")]
     pub sets: Vec<String>,
-    /// Number of actuator cycles per case.
-    #[arg(long)]
+    /// Number of actuator cycles per case (at least 1).
+    #[arg(long, value_name = "N", value_parser = super::at_least_one::<u64>, allow_negative_numbers = true)]
     pub cycles: Option<u64>,
     /// End time of each case [s].
     #[arg(long = "t-end", value_name = "SECONDS")]
