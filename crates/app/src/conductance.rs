@@ -106,11 +106,12 @@ fn thermal_option(a: &ConductanceOptions) -> Result<ThermalOption, AppError> {
 
 /// Estimate C and b from the discharge test of `a`.
 pub fn conductance(a: &ConductanceOptions) -> Result<ConductanceReport, AppError> {
-    let quantity =
-        |text: &str, d, what: &str| units::parse_quantity(text, d).map_err(|e| AppError::Usage(format!("--{what} \"{text}\": {e}")));
+    let quantity = |text: &str, d, what: &str| {
+        units::parse_quantity(text, d).map_err(|e| AppError::Usage(format!("--{what} \"{}\": {e}", units::show::text(text))))
+    };
     let volume = quantity(&a.volume, dim::VOLUME, "volume")?;
     if volume.is_nan() || volume <= 0.0 {
-        return Err(AppError::Usage(format!("--volume \"{}\": must be > 0", a.volume)));
+        return Err(AppError::Usage(format!("--volume \"{}\": the volume must be positive (e.g. \"1 L\")", units::show::text(&a.volume))));
     }
     if let Some(b) = a.b_window {
         if !(b > 0.0 && b < 1.0) {
@@ -120,7 +121,7 @@ pub fn conductance(a: &ConductanceOptions) -> Result<ConductanceReport, AppError
     let thermal = thermal_option(a)?;
     let given_p_atm = a.p_atm.as_deref().map(|text| quantity(text, dim::PRESSURE, "p-atm")).transpose()?;
     if given_p_atm.is_some_and(|p| p.is_nan() || p <= 0.0) {
-        return Err(AppError::Usage("--p-atm must be > 0".into()));
+        return Err(AppError::Usage("--p-atm: the atmospheric pressure must be positive (absolute, e.g. \"1.013 bar\")".into()));
     }
     let given_t0 = a.t0.as_deref().map(|text| quantity(text, dim::TEMPERATURE, "T0")).transpose()?;
     let data = read_discharge_csv(&a.data)?;

@@ -345,6 +345,20 @@ fn cycles_0_is_refused_with_the_usage_status() {
 }
 
 #[test]
+fn conductance_volume_minus_1_l_reaches_the_real_validation() {
+    let dir = Scratch::new("negvol");
+    dir.write("d.csv", "t,p\n0,600000\n1,300000\n2,101325\n");
+    for volume in ["-1 L", "-1", "-0.5e-3"] {
+        fails_cleanly(&dir, &["conductance", "--volume", volume, "--data", "d.csv"], &["--volume", "volume must be positive"]);
+    }
+    fails_cleanly(&dir, &["conductance", "--volume", "1 L", "--data", "d.csv", "--p-atm", "-1 bar"], &["--p-atm", "positive"]);
+    fails_cleanly(&dir, &["conductance", "--volume", "1 L", "--data", "d.csv", "--tau-thermal", "-2 s"], &["--tau-thermal", ">= 0 s"]);
+    fails_cleanly(&dir, &["conductance", "--volume", "1 L", "--data", "d.csv", "--b-window", "-0.5"], &["--b-window", "(0, 1)"]);
+    let m = model();
+    fails_cleanly(&dir, &["simulate", m.to_str().unwrap(), "--t-end", "-1"], &["--t-end", "> 0 s"]);
+}
+
+#[test]
 fn set_with_nothing_before_the_equals_shows_the_expected_form() {
     let dir = Scratch::new("emptyset");
     let m = local_model(&dir);
