@@ -69,7 +69,7 @@ fn not_a_regular_file(meta: &std::fs::Metadata, what: &str) -> Option<String> {
         return Some(format!("is a directory, not a {what} file"));
     }
     let kind = special_kind(&ft);
-    Some(format!("is {kind}, not a {what} file (pneumo reads regular files only; save the data to a file first)"))
+    Some(format!("is {kind}, not a {what} file (pneumo reads regular files only; copy it to a file first)"))
 }
 
 #[cfg(unix)]
