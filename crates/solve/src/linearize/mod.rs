@@ -191,7 +191,7 @@ pub fn set_modes(model: &mut Model, t: f64, y: &[f64], kind: PointKind, friction
             (Friction::Stuck, _) if m.v != 0.0 => {
                 return Err(LinearizeError::Point(format!(
                     "{id} moves at v = {} m/s: it cannot be held stuck (choose sliding)",
-                    crate::interface::readable(m.v)
+                    units::show::num(m.v)
                 )))
             }
             _ if m.v != 0.0 => Mode::Sliding { dir: m.v.signum() },
@@ -208,18 +208,18 @@ pub fn set_modes(model: &mut Model, t: f64, y: &[f64], kind: PointKind, friction
     model.eval_detached(t, y, None, None)?;
     for (node, nm) in out.iter_mut().enumerate() {
         let (m, f) = (model.node_mech[node], model.node_forces[node]);
-        let x_mm = crate::interface::readable(m.x * 1e3);
+        let x_mm = units::show::num(m.x * 1e3);
         nm.description = match nm.mode {
             Mode::Sliding { dir } => format!(
                 "sliding {} at v = {} m/s: friction slope and Coulomb level (with its pressure dependence) at that speed",
                 if dir > 0.0 { "extending" } else { "retracting" },
-                crate::interface::readable(m.v)
+                units::show::num(m.v)
             ),
             Mode::SlidingViscous => format!(
                 "sliding about v = 0 at x = {x_mm} mm: viscous friction c = {} N s/m only; the dry friction (Coulomb {} N, breakaway {} N) drops out",
-                crate::interface::readable(f.viscous),
-                crate::interface::readable(f.sliding - f.viscous * m.v.abs()),
-                crate::interface::readable(f.breakaway)
+                units::show::num(f.viscous),
+                units::show::num(f.sliding - f.viscous * m.v.abs()),
+                units::show::num(f.breakaway)
             ),
             Mode::Held { may_extend: false, .. } => {
                 format!("on its upper stop (x = {x_mm} mm): held, position and velocity are not states")
@@ -229,8 +229,8 @@ pub fn set_modes(model: &mut Model, t: f64, y: &[f64], kind: PointKind, friction
             }
             Mode::Held { .. } => format!(
                 "stuck at x = {x_mm} mm (net force {} N, breakaway level {} N): position and velocity are not states",
-                crate::interface::readable(f.applied),
-                crate::interface::readable(f.breakaway)
+                units::show::num(f.applied),
+                units::show::num(f.breakaway)
             ),
         };
     }

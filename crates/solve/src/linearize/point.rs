@@ -29,7 +29,7 @@ pub fn at_time(mut standalone: Model, driven: &mut Model, opts: &SimOptions, t: 
     if !(t > 0.0 && t.is_finite()) {
         return Err(LinearizeError::Point(format!(
             "t = {} s: the time must be > 0 s (for the state before anything moves, use rest)",
-            crate::interface::readable(t)
+            units::show::num(t)
         )));
     }
     let mut run = opts.clone();
@@ -45,8 +45,8 @@ pub fn at_time(mut standalone: Model, driven: &mut Model, opts: &SimOptions, t: 
     if t_last < t {
         return Err(LinearizeError::Point(format!(
             "the run ended at t = {} s, before t = {} s (a controller finished)",
-            crate::interface::readable(t_last),
-            crate::interface::readable(t)
+            units::show::num(t_last),
+            units::show::num(t)
         )));
     }
     carry(&mut standalone, driven, t_last, &y)?;
