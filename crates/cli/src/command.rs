@@ -3,7 +3,7 @@
 //! exit statuses. Used by the binary (`src/main.rs`) and by the Python
 //! package (`python -m pneumo`), so both are the same program.
 
-use crate::args::{check, conductance, discrepancy, plot, simulate, sweep};
+use crate::args::{check, conductance, discrepancy, fmu, plot, simulate, sweep};
 use clap::{Parser, Subcommand};
 use pneumo_app::error::one_line;
 use pneumo_app::load;
@@ -38,6 +38,8 @@ enum Command {
     Conductance(conductance::ConductanceArgs),
     /// Find where simulation and measurement disagree, name the missing effect, add it, show the gap shrink.
     Discrepancy(discrepancy::DiscrepancyArgs),
+    /// Export a netlist with an interface as an FMI 2.0 Co-Simulation FMU (docs/fmu.md).
+    Fmu(fmu::FmuArgs),
     /// Print the JSON Schema of the netlist format.
     Schema,
     /// List the block types and their parameters.
@@ -65,6 +67,7 @@ where
         Command::Plot(a) => plot::run(a),
         Command::Conductance(a) => conductance::run(a),
         Command::Discrepancy(a) => discrepancy::run(a),
+        Command::Fmu(a) => fmu::run(a),
         Command::Schema => {
             println!("{}", serde_json::to_string_pretty(&graph::netlist::schema()).unwrap_or_default());
             Ok(())
