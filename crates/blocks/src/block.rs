@@ -385,12 +385,32 @@ pub enum GasRole {
     Boundary,
 }
 
+/// A copy of a boxed block with its discrete state (a valve's position, a
+/// controller's phase): what lets a whole model be copied, e.g. for an FMU's
+/// `fmi2GetFMUstate`. Every `Block` that is `Clone` has it.
+pub trait BlockClone {
+    fn clone_block(&self) -> Box<dyn Block>;
+}
+
+impl<T: Block + Clone + 'static> BlockClone for T {
+    fn clone_block(&self) -> Box<dyn Block> {
+        Box::new(self.clone())
+    }
+}
+
+impl Clone for Box<dyn Block> {
+    fn clone(&self) -> Self {
+        self.clone_block()
+    }
+}
+
 /// A component of a pneumatic circuit.
 ///
 /// Every method has a do-nothing default so a block implements only the
 /// phases its ports need. Methods must be pure functions of their inputs
 /// (except `on_event`, which updates discrete state) and must not panic.
-pub trait Block: std::fmt::Debug + Send + Sync {
+/// A block is `Clone` ([`BlockClone`]): a copy carries its discrete state.
+pub trait Block: BlockClone + std::fmt::Debug + Send + Sync {
     /// The netlist type name ("chamber", "conductance", ...).
     fn type_name(&self) -> &'static str;
     /// Ports, in a fixed order.

@@ -3,7 +3,7 @@
 //! exit statuses. Used by the binary (`src/main.rs`) and by the Python
 //! package (`python -m pneumo`), so both are the same program.
 
-use crate::args::{check, conductance, discrepancy, linearize, plot, simulate, sweep};
+use crate::args::{check, conductance, discrepancy, fmu, linearize, plot, simulate, sweep};
 use clap::{Parser, Subcommand};
 use pneumo_app::error::one_line;
 use pneumo_app::load;
@@ -41,6 +41,8 @@ enum Command {
     Discrepancy(discrepancy::DiscrepancyArgs),
     /// Linear model (A, B, C, D), modes and Bode data about an operating point.
     Linearize(linearize::LinearizeArgs),
+    /// Export a netlist with an interface as an FMI 2.0 Co-Simulation FMU (docs/fmu.md).
+    Fmu(fmu::FmuArgs),
     /// Print the JSON Schema of the netlist format.
     Schema,
     /// List the block types and their parameters.
@@ -69,6 +71,7 @@ where
         Command::Conductance(a) => conductance::run(a),
         Command::Discrepancy(a) => discrepancy::run(a),
         Command::Linearize(a) => linearize::run(a),
+        Command::Fmu(a) => fmu::run(a),
         Command::Schema => {
             println!("{}", serde_json::to_string_pretty(&graph::netlist::schema()).unwrap_or_default());
             Ok(())

@@ -57,7 +57,7 @@ pub struct MechanicalNode {
 }
 
 /// A block instance with its id.
-#[derive(Debug)]
+#[derive(Debug, Clone)]
 pub struct Instance {
     pub id: String,
     pub block: Box<dyn Block>,
@@ -68,7 +68,7 @@ pub struct Instance {
 }
 
 /// A wired circuit with causality assigned.
-#[derive(Debug)]
+#[derive(Debug, Clone)]
 pub struct Circuit {
     pub name: String,
     pub gas: Arc<dyn GasModel>,

@@ -3,6 +3,7 @@
 //! Owns: the resource estimate of a run ([`budget`]), the flat state vector and right-hand side ([`model`]), algebraic
 //! junctions ([`junction`]), the Jacobian from the circuit's structure ([`jacobian`]), stick–slip and end-stop modes of mechanical
 //! nodes ([`mechanics`]), the rest state before t = 0 ([`rest`]), the event loop and result sampling ([`simulate`]),
+//! stepping a model from outside between communication points ([`stepper`]),
 //! the reading of simulation settings ([`settings`]), and the values of the netlist's interface inputs and outputs
 //! ([`interface`]).
 //! Never knows: concrete block types (blocks are reached through the
@@ -18,6 +19,7 @@ pub mod model;
 pub mod rest;
 pub mod settings;
 pub mod simulate;
+pub mod stepper;
 
 pub use interface::InputError;
 pub use model::{Model, ModelError};
@@ -27,3 +29,4 @@ pub use simulate::{
     simulate, simulate_observed, Balance, Cancel, Checkpoint, CheckpointKind, EventLog, FinalState, MassState, SimOptions, SimResult,
     SolveError, StrokeStatistic,
 };
+pub use stepper::Stepper;

@@ -60,8 +60,9 @@ pub(crate) struct Slot {
     pub motion: Vec<Motion>,
 }
 
-/// A circuit ready for integration.
-#[derive(Debug)]
+/// A circuit ready for integration; a clone is an independent copy with
+/// every block's discrete state (see [`blocks::block::BlockClone`]).
+#[derive(Debug, Clone)]
 pub struct Model {
     pub circuit: Circuit,
     pub gas: Arc<dyn GasModel>,

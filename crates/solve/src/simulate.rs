@@ -219,7 +219,7 @@ fn final_state(model: &Model) -> FinalState {
 }
 
 /// Everything a run produced.
-#[derive(Debug, Clone)]
+#[derive(Debug, Clone, Default)]
 pub struct SimResult {
     pub columns: Vec<String>,
     pub units: Vec<String>,
@@ -317,13 +317,13 @@ pub enum SolveError {
 }
 
 /// The model seen by the integrator.
-struct System<'a> {
-    model: &'a mut Model,
-    error: Option<ModelError>,
+pub(crate) struct System<'a> {
+    pub(crate) model: &'a mut Model,
+    pub(crate) error: Option<ModelError>,
     /// The Jacobian's structure, when it pays (see [`crate::jacobian`]).
-    structure: Option<&'a Structure>,
-    jacobian_work: &'a mut Workspace,
-    cancel: Option<&'a Cancel>,
+    pub(crate) structure: Option<&'a Structure>,
+    pub(crate) jacobian_work: &'a mut Workspace,
+    pub(crate) cancel: Option<&'a Cancel>,
 }
 
 impl System<'_> {
@@ -456,30 +456,11 @@ fn run(model: &mut Model, opts: &SimOptions, mut observer: Option<&mut dyn FnMut
     if !(opts.t_end > 0.0 && opts.t_end.is_finite()) {
         return Err(SolveError::Settings(format!("end time must be > 0 s, got {}", num(opts.t_end))));
     }
-    if !(opts.rtol > 0.0 && opts.rtol < 1.0 && opts.atol > 0.0) {
-        return Err(SolveError::Settings(format!("tolerances must be in (0, 1): rtol {} atol {}", num(opts.rtol), num(opts.atol))));
-    }
     let rest =
         if model.circuit.simulation.initial == graph::netlist::InitialMode::Rest { crate::rest::apply(model)? } else { Default::default() };
     let mut y = model.initial_state();
     let n = model.dim();
-    let scales = model.state_scales(&y);
-    let mut atol: Vec<f64> = scales.iter().map(|s| opts.atol * s).collect();
-    for a in atol[n - model.n_quadratures()..].iter_mut() {
-        *a = 1e30; // quadratures (balances, statistics) do not steer the step size
-    }
-    let options = Options {
-        rtol: opts.rtol,
-        atol,
-        h_init: None,
-        h_max: opts.max_step,
-        h_min: 1e-14,
-        max_steps: 50_000_000,
-        root_tol: 1e-12,
-        event_window: 0.0,
-        event_window_per_step: opts.rtol,
-    };
-    let mut integrator = Rosenbrock::with_method(options, n, opts.method);
+    let mut integrator = integrator_for(model, opts, &y)?;
     let structure = if opts.structured_jacobian { worthwhile_structure(model) } else { None };
     let mut jacobian_work = Workspace::default();
     let mut t = 0.0;
@@ -515,12 +496,7 @@ fn run(model: &mut Model, opts: &SimOptions, mut observer: Option<&mut dyn FnMut
     model.velocity_band = opts.atol;
 
     // initial modes: at rest where v = 0, then break away if the forces say so
-    model.eval(t, &y, None, None)?;
-    for node in 0..model.circuit.mechanical_nodes.len() {
-        let m = model.node_mech[node];
-        let stops = model.circuit.instances[model.circuit.mechanical_nodes[node].inertia.block].block.stops();
-        model.modes[node] = if m.v == 0.0 { mechanics::held_at(m.x, stops) } else { Mode::Sliding { dir: m.v.signum() } };
-    }
+    initial_modes(model, t, &y)?;
     resolve_events(model, t, &mut y, &[], &[], &mut result)?;
     model.eval(t, &y, None, None)?;
     let initial = model.stored(t, &y);
@@ -577,14 +553,12 @@ fn run(model: &mut Model, opts: &SimOptions, mut observer: Option<&mut dyn FnMut
                 }
             };
             let r = integrator.advance(&mut sys, &mut t, &mut y, t_stop, &mut dense_observer);
-            match (r, sys.error.take()) {
-                (Ok(a), _) => a,
-                (Err(_), _) if opts.cancel.as_ref().is_some_and(Cancel::is_cancelled) => return Err(SolveError::Cancelled { t }),
-                (Err(_), Some(model_error)) => return Err(model_error.into()),
-                (Err(IntegratorError::StepSizeTooSmall { t, h, index }), None) => {
-                    return Err(SolveError::StepTooSmall { t, h, state: sys.model.state_name(index) })
+            match r {
+                Ok(a) => a,
+                Err(e) => {
+                    let cancelled = opts.cancel.as_ref().is_some_and(Cancel::is_cancelled);
+                    return Err(advance_error(e, sys.error.take(), sys.model, cancelled, t));
                 }
-                (Err(e), None) => return Err(e.into()),
             }
         };
         if let Some(obs) = observer.as_mut() {
@@ -609,12 +583,7 @@ fn run(model: &mut Model, opts: &SimOptions, mut observer: Option<&mut dyn FnMut
         };
         if let Some(crossings) = crossings {
             // time events due now, also when a root landed on the same instant
-            let due: Vec<usize> = (0..model.circuit.instances.len())
-                .filter(|&bi| {
-                    let next = model.circuit.instances[bi].block.next_time_event(t - 1e-12 * t.max(1.0));
-                    matches!(next, Some(d) if (d - t).abs() <= 1e-12 * t.max(1.0))
-                })
-                .collect();
+            let due = due_time_events(model, t);
             if !crossings.is_empty() || !due.is_empty() {
                 n_events += 1;
                 if n_events > opts.max_events {
@@ -672,6 +641,65 @@ fn run(model: &mut Model, opts: &SimOptions, mut observer: Option<&mut dyn FnMut
     result.linear_algebra = integrator.linear_algebra();
     result.rhs_evaluations = model.evaluations;
     Ok(result)
+}
+
+/// The integrator of a run: tolerances checked, absolute tolerances scaled
+/// by each state's typical size at `y`.
+pub(crate) fn integrator_for(model: &Model, opts: &SimOptions, y: &[f64]) -> Result<Rosenbrock, SolveError> {
+    if !(opts.rtol > 0.0 && opts.rtol < 1.0 && opts.atol > 0.0) {
+        return Err(SolveError::Settings(format!("tolerances must be in (0, 1): rtol {} atol {}", num(opts.rtol), num(opts.atol))));
+    }
+    let n = model.dim();
+    let scales = model.state_scales(y);
+    let mut atol: Vec<f64> = scales.iter().map(|s| opts.atol * s).collect();
+    for a in atol[n - model.n_quadratures()..].iter_mut() {
+        *a = 1e30; // quadratures (balances, statistics) do not steer the step size
+    }
+    let options = Options {
+        rtol: opts.rtol,
+        atol,
+        h_init: None,
+        h_max: opts.max_step,
+        h_min: 1e-14,
+        max_steps: 50_000_000,
+        root_tol: 1e-12,
+        event_window: 0.0,
+        event_window_per_step: opts.rtol,
+    };
+    Ok(Rosenbrock::with_method(options, n, opts.method))
+}
+
+/// Modes of the mechanical nodes at the start of a run: at rest where v = 0
+/// (the event handling that follows breaks them away if the forces say so).
+pub(crate) fn initial_modes(model: &mut Model, t: f64, y: &[f64]) -> Result<(), SolveError> {
+    model.eval(t, y, None, None)?;
+    for node in 0..model.circuit.mechanical_nodes.len() {
+        let m = model.node_mech[node];
+        let stops = model.circuit.instances[model.circuit.mechanical_nodes[node].inertia.block].block.stops();
+        model.modes[node] = if m.v == 0.0 { mechanics::held_at(m.x, stops) } else { Mode::Sliding { dir: m.v.signum() } };
+    }
+    Ok(())
+}
+
+/// The blocks whose time events are due at `t`.
+pub(crate) fn due_time_events(model: &Model, t: f64) -> Vec<usize> {
+    (0..model.circuit.instances.len())
+        .filter(|&bi| {
+            let next = model.circuit.instances[bi].block.next_time_event(t - 1e-12 * t.max(1.0));
+            matches!(next, Some(d) if (d - t).abs() <= 1e-12 * t.max(1.0))
+        })
+        .collect()
+}
+
+/// The error of a failed `advance`: cancellation, the model's own error if it
+/// gave one, else the integrator's (a step-size failure names the state).
+pub(crate) fn advance_error(e: IntegratorError, model_error: Option<ModelError>, model: &Model, cancelled: bool, t: f64) -> SolveError {
+    match (e, model_error) {
+        _ if cancelled => SolveError::Cancelled { t },
+        (_, Some(model_error)) => model_error.into(),
+        (IntegratorError::StepSizeTooSmall { t, h, index }, None) => SolveError::StepTooSmall { t, h, state: model.state_name(index) },
+        (e, None) => e.into(),
+    }
 }
 
 /// The quadratures recorded at the instant `t` (an event), if any.
@@ -773,7 +801,7 @@ const MAX_ROUNDS: usize = 8;
 /// condition holds although nothing reported it) is handled as fired, so a
 /// held or closed mode never outlives its exit condition; the integrator
 /// then restarts with every root ≤ 0, i.e. watched from its "no event" side.
-fn resolve_events(
+pub(crate) fn resolve_events(
     model: &mut Model,
     t: f64,
     y: &mut [f64],

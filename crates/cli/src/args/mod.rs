@@ -4,6 +4,7 @@
 pub mod check;
 pub mod conductance;
 pub mod discrepancy;
+pub mod fmu;
 pub mod linearize;
 pub mod plot;
 pub mod simulate;
