@@ -3,7 +3,7 @@
 //! by the binary (`src/main.rs`) and by the Python package (`python -m
 //! pneumo`), so both are the same program.
 
-use crate::{check, conductance, discrepancy, load, plot, simulate, sweep};
+use crate::{check, conductance, discrepancy, draw, load, plot, simulate, sweep};
 use clap::{Parser, Subcommand};
 
 /// Simulate pneumatic circuits written as JSON netlists.
@@ -36,6 +36,8 @@ enum Command {
     Conductance(conductance::ConductanceArgs),
     /// Find where simulation and measurement disagree, name the missing effect, add it, show the gap shrink.
     Discrepancy(discrepancy::DiscrepancyArgs),
+    /// Draw the circuit diagram (ISO 1219-1 symbols) as SVG or PNG.
+    Draw(draw::DrawArgs),
     /// Print the JSON Schema of the netlist format.
     Schema,
     /// List the block types and their parameters.
@@ -63,6 +65,7 @@ where
         Command::Plot(a) => plot::run(&a),
         Command::Conductance(a) => conductance::run(&a),
         Command::Discrepancy(a) => discrepancy::run(&a),
+        Command::Draw(a) => draw::run(&a),
         Command::Schema => {
             println!("{}", serde_json::to_string_pretty(&graph::netlist::schema()).unwrap_or_default());
             Ok(())

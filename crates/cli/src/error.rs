@@ -47,6 +47,15 @@ impl From<graph::GraphError> for CliError {
     }
 }
 
+impl From<draw::DrawError> for CliError {
+    fn from(e: draw::DrawError) -> Self {
+        match e {
+            draw::DrawError::Graph(g) => CliError::Graph(g),
+            other => CliError::Data(other.to_string()),
+        }
+    }
+}
+
 impl From<solve::SolveError> for CliError {
     fn from(e: solve::SolveError) -> Self {
         CliError::Solve(Box::new(e))

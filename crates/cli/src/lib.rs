@@ -10,6 +10,7 @@ pub mod check;
 pub mod command;
 pub mod conductance;
 pub mod discrepancy;
+pub mod draw;
 pub mod error;
 pub mod load;
 pub mod output;
