@@ -133,7 +133,8 @@ pub fn cylinder(ctx: &Ctx) -> Shape {
             }
             "position_sensor" | "velocity_sensor" => {
                 let out = if m.ty.name == "position_sensor" { "x" } else { "v" };
-                let x = length - 30.0 - 30.0 * tops.iter().filter(|t| t.port == "x" || t.port == "v").count() as f64;
+                // mid-barrel, clear of the switches at the stroke ends
+                let x = length / 2.0 - 30.0 * tops.iter().filter(|t| t.port == "x" || t.port == "v").count() as f64;
                 s.rect(x - 9.0, top - 14.0, 18.0, 10.0);
                 s.text(x, top - 6.5, out, 8.0, Anchor::Middle);
                 s.styled_line(vec![(x, top - 4.0), (x, top)], Stroke::Thin);
@@ -173,6 +174,8 @@ pub fn cylinder(ctx: &Ctx) -> Shape {
 fn place_top_pins(s: &mut Shape, mut tops: Vec<TopPin>) {
     tops.sort_by(|a, b| a.x.total_cmp(&b.x).then(a.member.cmp(&b.member)));
     let mut last = f64::NEG_INFINITY;
+    let mut last_text_end = f64::NEG_INFINITY;
+    let mut high = false;
     for t in tops {
         let x = ((t.x / G).round() * G).max(last + 2.0 * G).max(G).min(s.w - G);
         last = x;
@@ -184,7 +187,11 @@ fn place_top_pins(s: &mut Shape, mut tops: Vec<TopPin>) {
             s.styled_line(vec![(x, 0.0), (x, 8.0), (ax, 8.0), (ax, ay)], stroke);
         }
         s.pin(t.member, t.port, x, 0.0, Dir::Up, t.kind);
-        s.prims.push(Prim::Text { x: x + 3.0, y: 16.0, text: t.name, size: 7.5, anchor: Anchor::Start, bold: false, italic: false });
+        // names that would run into the previous one go on a second line
+        high = x + 3.0 < last_text_end && !high;
+        last_text_end = x + 3.0 + crate::text::width(&t.name, 7.5) + 2.0;
+        let y = if high { 7.0 } else { 16.0 };
+        s.prims.push(Prim::Text { x: x + 3.0, y, text: t.name, size: 7.5, anchor: Anchor::Start, bold: false, italic: false });
     }
 }
 
