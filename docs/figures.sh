@@ -56,5 +56,6 @@ echo "figures written to $F"
 for m in meter_out meter_in mid_stop_5_3 sequence_ab position_control; do
   $P draw models/$m.json --out $F/diagram_$m.png --scale 1.5
 done
+$P draw models/meter_out.json --out $F/diagram_meter_out.svg
 cargo run --release -q -p pneumo-draw --example render -- "$W" --catalogue
 cp "$W/symbols.png" $F/draw_symbols.png

@@ -4,7 +4,7 @@
 //! overrides ([`load`]), one run with its budgets and rest state ([`run`]),
 //! outputs written as one transaction and the summary JSON ([`output`]),
 //! and one module per use case: [`check`], [`simulate`], [`sweep`] (and
-//! merge), [`plot`], [`conductance`], [`discrepancy`], [`draw`]. Use cases take plain
+//! merge), [`plot`], [`conductance`], [`discrepancy`], [`draw`], [`report`]. Use cases take plain
 //! option structs and return values or text; a front end parses its own
 //! arguments, prints, and maps [`AppError`] to its exit status or exception.
 //!
@@ -19,6 +19,7 @@ pub mod error;
 pub mod load;
 pub mod output;
 pub mod plot;
+pub mod report;
 pub mod run;
 pub mod simulate;
 pub mod sweep;

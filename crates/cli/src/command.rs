@@ -3,7 +3,7 @@
 //! exit statuses. Used by the binary (`src/main.rs`) and by the Python
 //! package (`python -m pneumo`), so both are the same program.
 
-use crate::args::{check, conductance, discrepancy, draw, plot, simulate, sweep};
+use crate::args::{check, conductance, discrepancy, draw, plot, report, simulate, sweep};
 use clap::{Parser, Subcommand};
 use pneumo_app::error::one_line;
 use pneumo_app::load;
@@ -40,6 +40,8 @@ enum Command {
     Discrepancy(discrepancy::DiscrepancyArgs),
     /// Draw the circuit diagram (ISO 1219-1 symbols) as SVG or PNG.
     Draw(draw::DrawArgs),
+    /// Run a netlist and write one self-contained HTML page: diagram, interactive traces, summary tables.
+    Report(report::ReportArgs),
     /// Print the JSON Schema of the netlist format.
     Schema,
     /// List the block types and their parameters.
@@ -68,6 +70,7 @@ where
         Command::Conductance(a) => conductance::run(a),
         Command::Discrepancy(a) => discrepancy::run(a),
         Command::Draw(a) => draw::run(a),
+        Command::Report(a) => report::run(a),
         Command::Schema => {
             println!("{}", serde_json::to_string_pretty(&graph::netlist::schema()).unwrap_or_default());
             Ok(())

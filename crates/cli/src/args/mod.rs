@@ -6,6 +6,7 @@ pub mod conductance;
 pub mod discrepancy;
 pub mod draw;
 pub mod plot;
+pub mod report;
 pub mod simulate;
 pub mod sweep;
 
