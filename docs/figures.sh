@@ -59,3 +59,9 @@ done
 $P draw models/meter_out.json --out $F/diagram_meter_out.svg
 cargo run --release -q -p pneumo-draw --example render -- "$W" --catalogue
 cp "$W/symbols.png" $F/draw_symbols.png
+
+# The report page in headless Chromium (docs/report.md, README); needs
+# scripts/install-browser.
+if command -v chromium >/dev/null; then
+  PNEUMO_SCREENSHOT_DIR="$PWD/$F" scripts/browser-test
+fi
