@@ -155,8 +155,7 @@ pub fn html(page: &Page, run: &Run) -> String {
     h.push_str("<div id=\"plots\"></div>\n</section>\n");
     let _ = writeln!(
         h,
-        "<footer><p>Plots drawn with uPlot {}, embedded under its licence:</p><pre class=\"licence\">{}</pre></footer>",
-        "1.6.32",
+        "<footer><p>Plots drawn with uPlot 1.6.32, embedded under its licence:</p><pre class=\"licence\">{}</pre></footer>",
         html_text_keep_lines(UPLOT_LICENSE)
     );
     let _ = write!(h, "<script type=\"application/json\" id=\"pneumo-data\">{data_block}</script>\n<script>{UPLOT_JS}</script>\n<script>{REPORT_JS}</script>\n</body>\n</html>\n");
@@ -177,7 +176,8 @@ fn svg_element(svg: &str) -> &str {
 fn plot_data(result: &solve::SimResult) -> Value {
     let n = result.times.len();
     let stride = n.div_ceil(MAX_POINTS).max(1);
-    let rows: Vec<usize> = (0..n).step_by(stride).chain((stride > 1 && n > 0 && (n - 1) % stride != 0).then_some(n - 1)).collect();
+    let rows: Vec<usize> =
+        (0..n).step_by(stride).chain((stride > 1 && n > 0 && !(n - 1).is_multiple_of(stride)).then_some(n - 1)).collect();
     let mut panels: Vec<(String, Quantity, Vec<usize>)> = Vec::new();
     for c in 0..result.columns.len() {
         let q = quantity_of_unit(result.units.get(c).map(String::as_str).unwrap_or(""));
