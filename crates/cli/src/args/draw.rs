@@ -9,7 +9,7 @@ pub struct DrawArgs {
     /// Netlist file (JSON).
     pub model: PathBuf,
     /// Override a parameter: ID.PARAM=VALUE (the labels show the new value).
-    #[arg(long = "set", value_name = "ID.PARAM=VALUE")]
+    #[arg(long = "set", value_name = "ID.PARAM=VALUE", allow_hyphen_values = true)]
     pub sets: Vec<String>,
     /// Output picture: FILE.svg or FILE.png (repeat for both).
     #[arg(long = "out", short = 'o', value_name = "FILE.svg|FILE.png", required = true)]
