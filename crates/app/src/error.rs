@@ -54,6 +54,15 @@ impl From<graph::GraphError> for AppError {
     }
 }
 
+impl From<draw::DrawError> for AppError {
+    fn from(e: draw::DrawError) -> Self {
+        match e {
+            draw::DrawError::Graph(g) => AppError::Graph(g),
+            other => AppError::Data(other.to_string()),
+        }
+    }
+}
+
 impl From<solve::SolveError> for AppError {
     fn from(e: solve::SolveError) -> Self {
         AppError::Solve(Box::new(e))

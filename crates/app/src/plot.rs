@@ -192,13 +192,13 @@ struct Figure {
 
 /// How a quantity is grouped and shown.
 #[derive(Debug, Clone)]
-struct Quantity {
+pub(crate) struct Quantity {
     /// Panel key: quantities with the same group share a panel.
     group: String,
     /// Axis words, e.g. "pressure".
     name: String,
     /// Display unit, e.g. "bar" ("-" for dimensionless).
-    display: String,
+    pub(crate) display: String,
     /// Conversion from SI to the display unit (None = identity).
     unit: Option<units::Unit>,
 }
@@ -216,19 +216,19 @@ impl Quantity {
             },
         }
     }
-    fn show(&self, si: f64) -> f64 {
+    pub(crate) fn show(&self, si: f64) -> f64 {
         match self.unit {
             Some(u) => u.in_unit(si),
             None => si,
         }
     }
-    fn axis(&self) -> String {
+    pub(crate) fn axis(&self) -> String {
         format!("{} [{}]", self.name, self.display)
     }
 }
 
 /// Grouping and display of a signal by its SI unit string (as in `SimResult::units`).
-fn quantity_of_unit(si: &str) -> Quantity {
+pub(crate) fn quantity_of_unit(si: &str) -> Quantity {
     match si {
         "Pa" => Quantity::new("pressure", "pressure", si, "bar"),
         "K" => Quantity::new("temperature", "temperature", si, "K"),

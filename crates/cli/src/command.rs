@@ -3,7 +3,7 @@
 //! exit statuses. Used by the binary (`src/main.rs`) and by the Python
 //! package (`python -m pneumo`), so both are the same program.
 
-use crate::args::{check, conductance, discrepancy, fmu, linearize, plot, simulate, sweep};
+use crate::args::{check, conductance, discrepancy, draw, fmu, linearize, plot, report, simulate, sweep};
 use clap::{Parser, Subcommand};
 use pneumo_app::error::one_line;
 use pneumo_app::load;
@@ -43,6 +43,10 @@ enum Command {
     Linearize(linearize::LinearizeArgs),
     /// Export a netlist with an interface as an FMI 2.0 Co-Simulation FMU (docs/fmu.md).
     Fmu(fmu::FmuArgs),
+    /// Draw the circuit diagram (ISO 1219-1 symbols) as SVG or PNG.
+    Draw(draw::DrawArgs),
+    /// Run a netlist and write one self-contained HTML page: diagram, interactive traces, summary tables.
+    Report(report::ReportArgs),
     /// Print the JSON Schema of the netlist format.
     Schema,
     /// List the block types and their parameters.
@@ -72,6 +76,8 @@ where
         Command::Discrepancy(a) => discrepancy::run(a),
         Command::Linearize(a) => linearize::run(a),
         Command::Fmu(a) => fmu::run(a),
+        Command::Draw(a) => draw::run(a),
+        Command::Report(a) => report::run(a),
         Command::Schema => {
             println!("{}", serde_json::to_string_pretty(&graph::netlist::schema()).unwrap_or_default());
             Ok(())

@@ -4,9 +4,11 @@
 pub mod check;
 pub mod conductance;
 pub mod discrepancy;
+pub mod draw;
 pub mod fmu;
 pub mod linearize;
 pub mod plot;
+pub mod report;
 pub mod simulate;
 pub mod sweep;
 
