@@ -1,8 +1,12 @@
 //! Warnings about input that builds but is probably not what the user
 //! meant, found by comparing the [`blocks::block::Fact`]s blocks state:
 //! - geometry of one actuator disagreeing between blocks (the piston's stroke
-//!   against the rod chamber's gas column, bores and rod diameters of the
-//!   chambers and the piston, a limit switch placed beyond the stroke);
+//!   against the rod chamber's gas column and a cushion's stroke, bores and
+//!   rod diameters of the chambers and the piston, a limit switch placed
+//!   beyond the stroke);
+//! - the chambers on one piston: a rod-side (retracting) chamber with no gas
+//!   column, and chambers that all push the piston the same way (a rod-side
+//!   chamber left at `orientation: extend`);
 //! - a supply below the ambient pressure;
 //! - a command source whose levels lie strictly between the released and
 //!   actuated levels of the on/off valve it drives.
@@ -54,12 +58,28 @@ fn mm(x: f64) -> String {
     format!("{} mm", (x * 1e3 * 1e6).round() / 1e6)
 }
 
-/// All warnings for a built circuit.
-pub fn check(c: &Circuit) -> Vec<Warning> {
+fn cm3(v: f64) -> String {
+    format!("{} cm3", (v * 1e6 * 1e4).round() / 1e4)
+}
+
+/// A chamber's face on a piston (see [`Fact::PistonFace`]).
+struct Face {
+    id: String,
+    sigma: f64,
+    area: f64,
+    dead_volume: f64,
+    length_at_zero: f64,
+    rod: bool,
+}
+
+/// All warnings for a built circuit; `origin` gives the file a component
+/// was written in (for the warning's file).
+pub fn check(c: &Circuit, origin: &dyn Fn(&str) -> String) -> Vec<Warning> {
     let mut warnings = Vec::new();
-    let warn = |warnings: &mut Vec<Warning>, message: String| warnings.push(Warning { file: String::new(), message });
+    let warn = |warnings: &mut Vec<Warning>, id: &str, message: String| warnings.push(Warning { file: origin(id), message });
     // (node, kind) → (value, "id.param") of the first block stating it
     let mut geometry: BTreeMap<(usize, Geometry), (f64, String)> = BTreeMap::new();
+    let mut faces: BTreeMap<usize, Vec<Face>> = BTreeMap::new();
     let mut switches: Vec<(usize, f64, String)> = Vec::new();
     let mut supplies: Vec<(f64, String)> = Vec::new();
     let mut ambient: Option<(f64, String)> = None;
@@ -74,9 +94,15 @@ pub fn check(c: &Circuit) -> Vec<Warning> {
                 Fact::Stroke(x) => geo(Geometry::Stroke, x, "stroke"),
                 Fact::Bore(x) => geo(Geometry::Bore, x, "bore"),
                 Fact::RodDiameter(x) => geo(Geometry::Rod, x, "rod_diameter"),
-                Fact::SwitchPosition(x) => {
+                Fact::PistonFace { sigma, area, dead_volume, length_at_zero, rod } => {
                     if let Some(n) = mechanical_node(c, r) {
-                        switches.push((n, x, who("stroke")));
+                        faces.entry(n).or_default().push(Face { id: inst.id.clone(), sigma, area, dead_volume, length_at_zero, rod });
+                    }
+                    None
+                }
+                Fact::SwitchPosition { x, param } => {
+                    if let Some(n) = mechanical_node(c, r) {
+                        switches.push((n, x, who(param)));
                     }
                     None
                 }
@@ -102,9 +128,11 @@ pub fn check(c: &Circuit) -> Vec<Warning> {
             };
             if let Some((key, (x, name))) = entry {
                 match geometry.get(&key) {
-                    Some((y, first)) if (x - y).abs() > SAME * x.abs().max(y.abs()) => {
-                        warn(&mut warnings, format!("{first} = {} but {name} = {}: the geometry of one actuator disagrees", mm(*y), mm(x)))
-                    }
+                    Some((y, first)) if (x - y).abs() > SAME * x.abs().max(y.abs()) => warn(
+                        &mut warnings,
+                        &inst.id,
+                        format!("{first} = {} but {name} = {}: the geometry of one actuator disagrees", mm(*y), mm(x)),
+                    ),
                     Some(_) => {}
                     None => {
                         geometry.insert(key, (x, name));
@@ -113,18 +141,27 @@ pub fn check(c: &Circuit) -> Vec<Warning> {
             }
         }
     }
+    for (node, faces) in &faces {
+        let stroke = geometry.get(&(*node, Geometry::Stroke));
+        for message in face_warnings(faces, stroke) {
+            warn(&mut warnings, &message.0, message.1);
+        }
+    }
     for (node, x, name) in switches {
         if let Some((stroke, by)) = geometry.get(&(node, Geometry::Stroke)) {
             if x > *stroke * (1.0 + SAME) {
-                warn(&mut warnings, format!("{name} trips at {} but {by} = {}: the switch is never reached", mm(x), mm(*stroke)));
+                let id = name.rsplit_once('.').map(|(id, _)| id).unwrap_or(&name).to_string();
+                warn(&mut warnings, &id, format!("{name} trips at {} but {by} = {}: the switch is never reached", mm(x), mm(*stroke)));
             }
         }
     }
     let (p_amb, amb_name) = ambient.unwrap_or((units::STANDARD_ATMOSPHERE, "the standard atmosphere".into()));
     for (p, name) in supplies {
         if p < p_amb {
+            let id = name.rsplit_once('.').map(|(id, _)| id).unwrap_or(&name).to_string();
             warn(
                 &mut warnings,
+                &id,
                 format!("{name} = {:.4} bar is below {amb_name} ({:.4} bar): pressures are absolute", p / 1e5, p_amb / 1e5),
             );
         }
@@ -138,6 +175,7 @@ pub fn check(c: &Circuit) -> Vec<Warning> {
         if let Some(v) = values.iter().find(|v| **v > lo && **v < hi) {
             warn(
                 &mut warnings,
+                &inst.id,
                 format!(
                     "{} takes the value {v}, between the released ({released}) and actuated ({actuated}) levels of {}",
                     c.port_name(*src),
@@ -149,10 +187,78 @@ pub fn check(c: &Circuit) -> Vec<Warning> {
     warnings
 }
 
+/// What is wrong with the chambers acting on one piston, as (component id,
+/// message): a retracting (rod-side) chamber without a gas column or with one
+/// that is not the stroke, and chambers that all push the same way.
+fn face_warnings(faces: &[Face], stroke: Option<&(f64, String)>) -> Vec<(String, String)> {
+    let mut out = Vec::new();
+    for f in faces.iter().filter(|f| f.sigma < 0.0) {
+        let Some((s, by)) = stroke else {
+            if f.length_at_zero <= 0.0 {
+                out.push((
+                    f.id.clone(),
+                    format!(
+                        "{0}.length_at_zero = 0 mm: the rod-side chamber (orientation retract) has no gas column, only {1} of dead volume; set it to the stroke",
+                        f.id,
+                        cm3(f.dead_volume)
+                    ),
+                ));
+            }
+            continue;
+        };
+        let empty_at = f.length_at_zero + f.dead_volume / f.area; // x at which V = 0
+        if f.length_at_zero <= 0.0 {
+            out.push((
+                f.id.clone(),
+                format!(
+                    "{0}.length_at_zero = 0 mm but {by} = {1}: the rod-side chamber has no gas column (its {2} dead volume is empty after {3:.1} mm); set it to the stroke",
+                    f.id,
+                    mm(*s),
+                    cm3(f.dead_volume),
+                    empty_at * 1e3
+                ),
+            ));
+        } else if (f.length_at_zero - s).abs() > SAME * s.abs() {
+            let volume = if empty_at < *s { format!("; its volume is 0 at x = {:.1} mm", empty_at * 1e3) } else { String::new() };
+            out.push((
+                f.id.clone(),
+                format!(
+                    "{0}.length_at_zero = {1} but {by} = {2}: the rod-side gas column at x = 0 is the stroke{volume}",
+                    f.id,
+                    mm(f.length_at_zero),
+                    mm(*s)
+                ),
+            ));
+        }
+    }
+    if faces.len() >= 2 {
+        for (sigma, way, fix) in [(1.0, "extend", "retract"), (-1.0, "retract", "extend")] {
+            if faces.iter().all(|f| f.sigma == sigma) {
+                // the chamber that looks like the other side: a rod through it, or a gas column
+                let looks = |f: &&Face| if sigma > 0.0 { f.rod || f.length_at_zero > 0.0 } else { !f.rod };
+                let suspects: Vec<&Face> = faces.iter().filter(looks).collect();
+                let culprit = if suspects.len() == 1 { suspects[0] } else { &faces[faces.len() - 1] };
+                let ids: Vec<&str> = faces.iter().map(|f| f.id.as_str()).collect();
+                let all = if ids.len() == 2 { "both" } else { "all" };
+                let side = if sigma > 0.0 { "rod-side" } else { "head-side" };
+                out.push((
+                    culprit.id.clone(),
+                    format!(
+                        "{} {all} push the piston toward {way}: the {side} chamber needs {}.orientation = {fix}",
+                        ids.join(" and "),
+                        culprit.id
+                    ),
+                ));
+            }
+        }
+    }
+    out
+}
+
 /// Input that cannot work: a regulator whose set pressure is not below the
 /// supply that reaches its supply port (through any pneumatic path, not
 /// through other regulators, which count as sources at their set pressure).
-pub fn errors(c: &Circuit) -> Result<(), GraphError> {
+pub fn errors(c: &Circuit, origin: &dyn Fn(&str) -> String) -> Result<(), GraphError> {
     for (bi, inst) in c.instances.iter().enumerate() {
         for (port, fact) in inst.block.facts() {
             let Fact::SetPressure(p_set) = fact else { continue };
@@ -160,6 +266,7 @@ pub fn errors(c: &Circuit) -> Result<(), GraphError> {
             let Some((p_supply, source)) = available_supply(c, node, bi) else { continue };
             if p_set >= p_supply {
                 return Err(GraphError::Inconsistent {
+                    file: origin(&inst.id),
                     id: inst.id.clone(),
                     param: "p_set".into(),
                     message: format!(

@@ -468,7 +468,7 @@ fn set_reaches_components_inside_a_subsystem() {
 fn subsystem_with_unknown_exposed_parameter_lists_what_it_exposes() {
     let loader = loader_with_parent(json!({ "diameter": "40 mm" }));
     let e = graph::load(&loader, Path::new("lib/parent.json")).unwrap_err().to_string();
-    assert_names(&e, &["subsystem \"cyl\"", "\"diameter\"", "bore, stroke"]);
+    assert_names(&e, &["component \"cyl\"", "\"diameter\"", "bore, stroke"]);
 }
 
 #[test]
