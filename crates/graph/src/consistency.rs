@@ -6,7 +6,9 @@
 //!   beyond the stroke);
 //! - the chambers on one piston: a rod-side (retracting) chamber with no gas
 //!   column, and chambers that all push the piston the same way (a rod-side
-//!   chamber left at `orientation: extend`);
+//!   chamber left at `orientation: extend`); these are [`errors`] when the
+//!   circuit could not run (the chamber's volume reaches zero within the
+//!   stroke; the chamber at fault is plain);
 //! - a supply below the ambient pressure;
 //! - a command source whose levels lie strictly between the released and
 //!   actuated levels of the on/off valve it drives.
@@ -62,6 +64,9 @@ fn cm3(v: f64) -> String {
     format!("{} cm3", (v * 1e6 * 1e4).round() / 1e4)
 }
 
+/// A value and the `id.param` of the block that states it.
+type Stated = (f64, String);
+
 /// A chamber's face on a piston (see [`Fact::PistonFace`]).
 struct Face {
     id: String,
@@ -79,7 +84,6 @@ pub fn check(c: &Circuit, origin: &dyn Fn(&str) -> String) -> Vec<Warning> {
     let warn = |warnings: &mut Vec<Warning>, id: &str, message: String| warnings.push(Warning { file: origin(id), message });
     // (node, kind) → (value, "id.param") of the first block stating it
     let mut geometry: BTreeMap<(usize, Geometry), (f64, String)> = BTreeMap::new();
-    let mut faces: BTreeMap<usize, Vec<Face>> = BTreeMap::new();
     let mut switches: Vec<(usize, f64, String)> = Vec::new();
     let mut supplies: Vec<(f64, String)> = Vec::new();
     let mut ambient: Option<(f64, String)> = None;
@@ -94,12 +98,8 @@ pub fn check(c: &Circuit, origin: &dyn Fn(&str) -> String) -> Vec<Warning> {
                 Fact::Stroke(x) => geo(Geometry::Stroke, x, "stroke"),
                 Fact::Bore(x) => geo(Geometry::Bore, x, "bore"),
                 Fact::RodDiameter(x) => geo(Geometry::Rod, x, "rod_diameter"),
-                Fact::PistonFace { sigma, area, dead_volume, length_at_zero, rod } => {
-                    if let Some(n) = mechanical_node(c, r) {
-                        faces.entry(n).or_default().push(Face { id: inst.id.clone(), sigma, area, dead_volume, length_at_zero, rod });
-                    }
-                    None
-                }
+                // compared per piston by `piston_findings`
+                Fact::PistonFace { .. } => None,
                 Fact::SwitchPosition { x, param } => {
                     if let Some(n) = mechanical_node(c, r) {
                         switches.push((n, x, who(param)));
@@ -141,11 +141,8 @@ pub fn check(c: &Circuit, origin: &dyn Fn(&str) -> String) -> Vec<Warning> {
             }
         }
     }
-    for (node, faces) in &faces {
-        let stroke = geometry.get(&(*node, Geometry::Stroke));
-        for message in face_warnings(faces, stroke) {
-            warn(&mut warnings, &message.0, message.1);
-        }
+    for finding in piston_findings(c).into_iter().filter(|f| !f.fatal) {
+        warn(&mut warnings, &finding.id, finding.message);
     }
     for (node, x, name) in switches {
         if let Some((stroke, by)) = geometry.get(&(node, Geometry::Stroke)) {
@@ -187,48 +184,84 @@ pub fn check(c: &Circuit, origin: &dyn Fn(&str) -> String) -> Vec<Warning> {
     warnings
 }
 
-/// What is wrong with the chambers acting on one piston, as (component id,
-/// message): a retracting (rod-side) chamber without a gas column or with one
-/// that is not the stroke, and chambers that all push the same way.
-fn face_warnings(faces: &[Face], stroke: Option<&(f64, String)>) -> Vec<(String, String)> {
+/// Something wrong with the chambers acting on one piston: `fatal` when the
+/// circuit cannot run (the integrator would fail or the piston could never
+/// move back), else a warning. `param` is the chamber's parameter to fix.
+struct FaceFinding {
+    id: String,
+    param: &'static str,
+    message: String,
+    fatal: bool,
+}
+
+/// The chambers' faces on each moving mass, with the stroke stated there
+/// (value and `id.stroke` of the first block stating it).
+fn piston_faces(c: &Circuit) -> Vec<(Vec<Face>, Option<Stated>)> {
+    let mut faces: BTreeMap<usize, Vec<Face>> = BTreeMap::new();
+    let mut strokes: BTreeMap<usize, Stated> = BTreeMap::new();
+    for (bi, inst) in c.instances.iter().enumerate() {
+        for (port, fact) in inst.block.facts() {
+            let Some(n) = mechanical_node(c, PortRef { block: bi, port }) else { continue };
+            match fact {
+                Fact::PistonFace { sigma, area, dead_volume, length_at_zero, rod } => {
+                    faces.entry(n).or_default().push(Face { id: inst.id.clone(), sigma, area, dead_volume, length_at_zero, rod })
+                }
+                Fact::Stroke(x) => {
+                    strokes.entry(n).or_insert((x, format!("{}.stroke", inst.id)));
+                }
+                _ => {}
+            }
+        }
+    }
+    faces.into_iter().map(|(n, f)| (f, strokes.get(&n).cloned())).collect()
+}
+
+/// Everything wrong with the chambers on every piston.
+fn piston_findings(c: &Circuit) -> Vec<FaceFinding> {
+    piston_faces(c).iter().flat_map(|(faces, stroke)| face_findings(faces, stroke.as_ref())).collect()
+}
+
+/// What is wrong with the chambers acting on one piston: a retracting
+/// (rod-side) chamber without a gas column or with one that is not the
+/// stroke (fatal when its volume reaches zero within the stroke: the
+/// integrator fails there), and chambers that all push the same way (fatal
+/// when one of them is recognisably the other side's: nothing pushes the
+/// piston back, it stalls at a stop).
+fn face_findings(faces: &[Face], stroke: Option<&Stated>) -> Vec<FaceFinding> {
     let mut out = Vec::new();
+    let finding = |f: &Face, param, message, fatal| FaceFinding { id: f.id.clone(), param, message, fatal };
     for f in faces.iter().filter(|f| f.sigma < 0.0) {
         let Some((s, by)) = stroke else {
             if f.length_at_zero <= 0.0 {
-                out.push((
-                    f.id.clone(),
-                    format!(
-                        "{0}.length_at_zero = 0 mm: the rod-side chamber (orientation retract) has no gas column, only {1} of dead volume; set it to the stroke",
-                        f.id,
-                        cm3(f.dead_volume)
-                    ),
-                ));
+                let message = format!(
+                    "{0}.length_at_zero = 0 mm: the rod-side chamber (orientation retract) has no gas column, only {1} of dead volume; set it to the stroke",
+                    f.id,
+                    cm3(f.dead_volume)
+                );
+                out.push(finding(f, "length_at_zero", message, false));
             }
             continue;
         };
-        let empty_at = f.length_at_zero + f.dead_volume / f.area; // x at which V = 0
-        if f.length_at_zero <= 0.0 {
-            out.push((
-                f.id.clone(),
-                format!(
-                    "{0}.length_at_zero = 0 mm but {by} = {1}: the rod-side chamber has no gas column (its {2} dead volume is empty after {3:.1} mm); set it to the stroke",
-                    f.id,
-                    mm(*s),
-                    cm3(f.dead_volume),
-                    empty_at * 1e3
-                ),
-            ));
+        let empty_at = f.length_at_zero + f.dead_volume / f.area; // x at which V = 0 (V = V0 + A (L0 - x))
+        if empty_at < *s * (1.0 - SAME) {
+            let column =
+                if f.length_at_zero <= 0.0 { "no gas column".to_string() } else { format!("a gas column of {}", mm(f.length_at_zero)) };
+            let message = format!(
+                "is {} but {by} = {}: this rod-side chamber (orientation retract) has {column}, so its volume ({} dead) is used up at x = {:.1} mm and the simulation would fail there; set \"length_at_zero\" to the stroke (\"= stroke\" in a sub-circuit), or use the built-in \"type\": \"cylinder\"",
+                mm(f.length_at_zero),
+                mm(*s),
+                cm3(f.dead_volume),
+                empty_at * 1e3
+            );
+            out.push(finding(f, "length_at_zero", message, true));
         } else if (f.length_at_zero - s).abs() > SAME * s.abs() {
-            let volume = if empty_at < *s { format!("; its volume is 0 at x = {:.1} mm", empty_at * 1e3) } else { String::new() };
-            out.push((
-                f.id.clone(),
-                format!(
-                    "{0}.length_at_zero = {1} but {by} = {2}: the rod-side gas column at x = 0 is the stroke{volume}",
-                    f.id,
-                    mm(f.length_at_zero),
-                    mm(*s)
-                ),
-            ));
+            let message = format!(
+                "{0}.length_at_zero = {1} but {by} = {2}: the rod-side gas column at x = 0 is the stroke",
+                f.id,
+                mm(f.length_at_zero),
+                mm(*s)
+            );
+            out.push(finding(f, "length_at_zero", message, false));
         }
     }
     if faces.len() >= 2 {
@@ -241,24 +274,36 @@ fn face_warnings(faces: &[Face], stroke: Option<&(f64, String)>) -> Vec<(String,
                 let ids: Vec<&str> = faces.iter().map(|f| f.id.as_str()).collect();
                 let all = if ids.len() == 2 { "both" } else { "all" };
                 let side = if sigma > 0.0 { "rod-side" } else { "head-side" };
-                out.push((
-                    culprit.id.clone(),
+                let message = if suspects.len() == 1 {
+                    format!(
+                        "is \"{way}\", but {} {all} push the piston toward {way}, so nothing pushes it back and it stalls at the end stop; this {side} chamber needs \"orientation\": \"{fix}\" (or use the built-in \"type\": \"cylinder\")",
+                        ids.join(" and ")
+                    )
+                } else {
                     format!(
                         "{} {all} push the piston toward {way}: the {side} chamber needs {}.orientation = {fix}",
                         ids.join(" and "),
                         culprit.id
-                    ),
-                ));
+                    )
+                };
+                out.push(finding(culprit, "orientation", message, suspects.len() == 1));
             }
         }
     }
+    // a chamber turned the wrong way is the cause of its missing gas column: named first
+    out.sort_by_key(|f| f.param != "orientation");
     out
 }
 
-/// Input that cannot work: a regulator whose set pressure is not below the
+/// Input that cannot work: a rod-side chamber whose volume reaches zero
+/// within the stroke, chambers that all push one piston the same way when
+/// one of them is plainly the other side's (see [`face_findings`]), and a regulator whose set pressure is not below the
 /// supply that reaches its supply port (through any pneumatic path, not
 /// through other regulators, which count as sources at their set pressure).
 pub fn errors(c: &Circuit, origin: &dyn Fn(&str) -> String) -> Result<(), GraphError> {
+    if let Some(f) = piston_findings(c).into_iter().find(|f| f.fatal) {
+        return Err(GraphError::Inconsistent { file: origin(&f.id), id: f.id, param: f.param.into(), message: f.message });
+    }
     for (bi, inst) in c.instances.iter().enumerate() {
         for (port, fact) in inst.block.facts() {
             let Fact::SetPressure(p_set) = fact else { continue };
