@@ -401,7 +401,7 @@ fn plot_overlays_result_files_and_sweeps() {
     ok(&dir.0, &["simulate", m, "--cycles", "1", "--signals", signals, "--set", "flow_control.C=5 L/min/bar", "--out", "slow.csv"]);
     ok(&dir.0, &["plot", "fast.csv", "slow.csv", "--signals", "head.p,rod.p", "-o", "p.svg", "--title", "two runs"]);
     let svg = std::fs::read_to_string(dir.path("p.svg")).expect("p.svg");
-    for s in ["fast: head.p", "slow: rod.p", "two runs", "pressure [bar]"] {
+    for s in ["fast: head.p", "slow: rod.p", "two runs", "pressure [bar (abs)]"] {
         assert!(svg.contains(s), "p.svg lacks {s:?}");
     }
     ok(&dir.0, &["plot", "fast.csv", "slow.csv", "--signals", "piston.x", "--normalize", "-o", "n.png"]);
