@@ -15,10 +15,11 @@ struct Cli {
     #[command(subcommand)]
     command: Command,
     /// Most components a circuit may expand to (subsystems included).
-    #[arg(long = "max-components", global = true, value_name = "N", default_value_t = graph::expand::DEFAULT_MAX_COMPONENTS)]
+    #[arg(long = "max-components", global = true, value_name = "N", default_value_t = graph::expand::DEFAULT_MAX_COMPONENTS, allow_negative_numbers = true)]
     max_components: usize,
-    /// Memory a run may plan to use [MiB] (result traces, the solver's matrices); larger runs are refused before they start.
-    #[arg(long = "max-memory", global = true, value_name = "MiB", default_value_t = load::DEFAULT_MAX_MEMORY_MIB)]
+    /// Memory a run may plan to use [MiB] (result traces, the solver's matrices; input files get a quarter of it);
+    /// larger runs and inputs are refused before they start.
+    #[arg(long = "max-memory", global = true, value_name = "MiB", default_value_t = load::DEFAULT_MAX_MEMORY_MIB, allow_negative_numbers = true)]
     max_memory: u64,
 }
 

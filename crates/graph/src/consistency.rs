@@ -56,8 +56,11 @@ fn mechanical_node(c: &Circuit, r: PortRef) -> Option<usize> {
     }
 }
 
+/// A length in mm for a message, rounded to 1 nm unless that hides it.
 fn mm(x: f64) -> String {
-    format!("{} mm", (x * 1e3 * 1e6).round() / 1e6)
+    let v = x * 1e3;
+    let rounded = (v * 1e6).round() / 1e6;
+    format!("{} mm", units::show::num(if rounded != 0.0 && rounded.is_finite() { rounded } else { v }))
 }
 
 fn cm3(v: f64) -> String {
@@ -159,7 +162,11 @@ pub fn check(c: &Circuit, origin: &dyn Fn(&str) -> String) -> Vec<Warning> {
             warn(
                 &mut warnings,
                 &id,
-                format!("{name} = {:.4} bar is below {amb_name} ({:.4} bar): pressures are absolute", p / 1e5, p_amb / 1e5),
+                format!(
+                    "{name} = {} bar is below {amb_name} ({} bar): pressures are absolute",
+                    units::show::fixed(p / 1e5, 4),
+                    units::show::fixed(p_amb / 1e5, 4)
+                ),
             );
         }
     }
@@ -174,8 +181,11 @@ pub fn check(c: &Circuit, origin: &dyn Fn(&str) -> String) -> Vec<Warning> {
                 &mut warnings,
                 &inst.id,
                 format!(
-                    "{} takes the value {v}, between the released ({released}) and actuated ({actuated}) levels of {}",
+                    "{} takes the value {}, between the released ({}) and actuated ({}) levels of {}",
                     c.port_name(*src),
+                    units::show::num(*v),
+                    units::show::num(released),
+                    units::show::num(actuated),
                     c.port_name(r)
                 ),
             );
@@ -315,9 +325,9 @@ pub fn errors(c: &Circuit, origin: &dyn Fn(&str) -> String) -> Result<(), GraphE
                     id: inst.id.clone(),
                     param: "p_set".into(),
                     message: format!(
-                        "set to {:.4} bar, not below the supply that reaches it ({source} = {:.4} bar); pressures are absolute",
-                        p_set / 1e5,
-                        p_supply / 1e5
+                        "set to {} bar, not below the supply that reaches it ({source} = {} bar); pressures are absolute",
+                        units::show::fixed(p_set / 1e5, 4),
+                        units::show::fixed(p_supply / 1e5, 4)
                     ),
                 });
             }
