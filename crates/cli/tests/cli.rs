@@ -330,8 +330,10 @@ fn blocks_lists_every_type() {
     let dir = Scratch::new("blocks");
     let listing = ok(&dir.0, &["blocks"]);
     // types are listed by family under "== Family ==" headings
+    let (block_types, built_ins) = listing.split_once("== Built-in components").expect("built-in section");
+    assert!(built_ins.contains("\ncylinder — ") && built_ins.contains("head_port") && built_ins.contains("rod_port"), "{built_ins}");
     let mut listed: Vec<&str> =
-        listing.lines().filter(|l| !l.starts_with(' ') && l.contains(" — ")).filter_map(|l| l.split(" — ").next()).collect();
+        block_types.lines().filter(|l| !l.starts_with(' ') && l.contains(" — ")).filter_map(|l| l.split(" — ").next()).collect();
     assert!(listing.contains("== Directional control valves ==") && listing.contains("== Sensors and switches =="), "families");
     // the registry's own list, as the error for an unknown type reports it
     let f = variant(&dir, "t.json", |v| component(v, "head")["type"] = "no_such_type".into());
