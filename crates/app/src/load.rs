@@ -244,8 +244,16 @@ mod tests {
 
     #[test]
     fn a_source_loads_again_without_the_file_system_and_hashes_its_files() {
-        let path = models().join("meter_out_subsystem.json");
+        // the meter-out circuit with its cylinder read from a file next to it, not the built-in
+        let dir = std::env::temp_dir().join(format!("pneumo-load-{}", std::process::id()));
+        std::fs::create_dir_all(dir.join("lib")).unwrap();
+        std::fs::copy(models().join("lib/cylinder.json"), dir.join("lib/cylinder.json")).unwrap();
+        let parent = std::fs::read_to_string(models().join("meter_out_subsystem.json")).unwrap();
+        let parent = parent.replace(r#""type": "cylinder""#, r#""type": "subsystem", "file": "lib/cylinder.json""#);
+        let path = dir.join("meter_out_subsystem.json");
+        std::fs::write(&path, parent).unwrap();
         let (flat, source) = Source::read(&path).unwrap();
+        std::fs::remove_dir_all(&dir).unwrap();
         assert!(source.files.len() >= 2, "the subsystem file is held too: {:?}", source.files.iter().map(|f| &f.0).collect::<Vec<_>>());
         assert_eq!(source.files[0].0, path);
         assert_eq!(source.load().unwrap(), flat);

@@ -346,10 +346,18 @@ pub struct FreeInitial {
 /// input counts as being on the node of the block that drives it).
 #[derive(Debug, Clone, PartialEq)]
 pub enum Fact {
-    /// Stroke of the actuator [m] (piston travel, rod-side gas column).
+    /// Stroke of the actuator [m], stated by a block's parameter `stroke`
+    /// (the piston's travel, a cushion's end).
     Stroke(f64),
-    /// Position [m] at which a limit switch on this mass trips (≤ stroke).
-    SwitchPosition(f64),
+    /// Position [m] at which a switch on this mass trips (≤ stroke), and
+    /// the block's parameter that sets it.
+    SwitchPosition { x: f64, param: &'static str },
+    /// A chamber's face on a piston: it pushes toward extend (`sigma` = +1,
+    /// its volume grows as x grows) or retract (−1), with its area [m²],
+    /// dead volume [m³] and gas column at x = 0 [m] (parameters
+    /// `orientation`, `dead_volume`, `length_at_zero`); `rod` when a rod
+    /// passes through it (`rod_diameter` > 0).
+    PistonFace { sigma: f64, area: f64, dead_volume: f64, length_at_zero: f64, rod: bool },
     /// Piston diameter [m].
     Bore(f64),
     /// Rod diameter [m].

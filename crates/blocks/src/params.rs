@@ -197,8 +197,8 @@ macro_rules! param_set {
 /// Why a parameter could not be accepted. The component id is added by the caller.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum ParamError {
-    #[error("unknown parameter \"{name}\" (accepted: {accepted})")]
-    Unknown { name: String, accepted: String },
+    #[error("unknown parameter \"{name}\"{hint} (accepted: {accepted})")]
+    Unknown { name: String, hint: String, accepted: String },
     #[error("missing required parameter \"{name}\" ({doc})")]
     Missing { name: String, doc: String },
     #[error("parameter \"{name}\" = {value}: {source}")]
@@ -231,6 +231,7 @@ impl Params {
         for (name, value) in raw {
             let spec = specs.iter().find(|s| s.name == name).ok_or_else(|| ParamError::Unknown {
                 name: name.to_string(),
+                hint: crate::suggest::did_you_mean(name, specs.iter().map(|s| s.name)),
                 accepted: specs.iter().map(|s| s.name).collect::<Vec<_>>().join(", "),
             })?;
             match spec.kind {

@@ -201,6 +201,7 @@ fn slots(flat: &FlatNetlist, warnings: &mut Vec<Warning>) -> Result<Vec<Slot>, G
                     }
                     None => {
                         let x = parse_value(spec, &v.to_raw()).map_err(|source| GraphError::Block {
+                            file: c.origin.clone(),
                             id: c.id.clone(),
                             source: Box::new(blocks::BlockError::Param(source)),
                         })?;

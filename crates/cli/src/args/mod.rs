@@ -28,7 +28,9 @@ pub fn print_warnings(warnings: &[graph::Warning]) {
     let mut seen = std::collections::BTreeSet::new();
     for w in warnings {
         if seen.insert(w) {
-            eprintln!("warning: {}", pneumo_app::error::one_line(&w.to_string()));
+            // file and message shortened apart, so that a long path does not cut the message
+            let file = if w.file.is_empty() { String::new() } else { format!("{}: ", pneumo_app::error::one_line(&w.file)) };
+            eprintln!("warning: {file}{}", pneumo_app::error::one_line(&w.message));
         }
     }
 }
