@@ -39,7 +39,7 @@
 //! named first that a later one made unnecessary is dropped.
 
 use crate::candidates::{better_short, short_reference};
-use crate::candidates::{finish, prepare, problem_for, screened, Candidate, Pass, Structure};
+use crate::candidates::{calibration_jacobian, finish, prepare, problem_for, projected_scan, screened, Candidate, Pass, Structure};
 use crate::effects::Effect;
 use crate::experiment::Experiment;
 use crate::fit::{fit_once, fit_short_stages, screen_horizon, FitOptions};
@@ -96,19 +96,30 @@ pub fn compare(a: &HeldOut, b: &HeldOut, th: &Thresholds) -> Comparison {
     Comparison { gain, remainder, ratio: gain / remainder, relative: if ma > 0.0 { gain / ma } else { 0.0 } }
 }
 
-/// Why a comparison fails tests 3 and 4 (empty when it passes).
-pub fn heldout_reasons(c: &Comparison, th: &Thresholds) -> Vec<String> {
+/// Which of tests 3 and 4 a comparison fails, and why (empty when it passes).
+pub fn heldout_failures(c: &Comparison, th: &Thresholds) -> Vec<(&'static str, String)> {
     let mut out = Vec::new();
     if c.relative.is_nan() || c.relative < th.heldout_gain {
-        out.push(format!("held-out mean square lowered by {:.1} % (needs {:.0} %)", 100.0 * c.relative, 100.0 * th.heldout_gain));
+        out.push((
+            "heldout_gain",
+            format!("held-out mean square lowered by {:.1} % (needs {:.0} %)", 100.0 * c.relative, 100.0 * th.heldout_gain),
+        ));
     }
     if c.ratio.is_nan() || c.ratio < th.floor_ratio {
-        out.push(format!(
-            "below the model-form floor: held-out gain {:.3} is {:.2} × the remainder {:.3} it leaves (needs {})",
-            c.gain, c.ratio, c.remainder, th.floor_ratio
+        out.push((
+            "model_form_floor",
+            format!(
+                "below the model-form floor: held-out gain {:.3} is {:.2} × the remainder {:.3} it leaves (needs {})",
+                c.gain, c.ratio, c.remainder, th.floor_ratio
+            ),
         ));
     }
     out
+}
+
+/// Why a comparison fails tests 3 and 4 (empty when it passes).
+pub fn heldout_reasons(c: &Comparison, th: &Thresholds) -> Vec<String> {
+    heldout_failures(c, th).into_iter().map(|(_, why)| why).collect()
 }
 
 /// What a round concludes from the candidates that passed every test.
@@ -204,6 +215,12 @@ fn polish(base: &FlatNetlist, experiments: &[Experiment], s: &mut Structure, opt
     Ok(spent)
 }
 
+/// The first round's rescue (below) is skipped when a candidate already
+/// lowered the short-record criterion by more than this: a strong effect
+/// then stands out of the bent calibration on its own (the rescue was
+/// needed where the best first-pass candidate gained little).
+const RESCUE_UNLESS: f64 = 1000.0;
+
 /// Run the greedy search and the backward check from the calibrated baseline.
 pub fn search<'a>(
     base: &'a FlatNetlist,
@@ -246,6 +263,45 @@ pub fn search<'a>(
             if tried.len() == 1 { "" } else { "s" },
             tried.iter().map(|e| e.name()).collect::<Vec<_>>().join(", ")
         ));
+        // the projected scan ranks the candidates; only the best few are prepared
+        let mut pruned: Vec<Candidate> = Vec::new();
+        let projection = if opts.screen_prepare > 0 { calibration_jacobian(base, experiments, &current, opts) } else { None };
+        let tried: Vec<&dyn Effect> = match projection {
+            Some((reference, spent)) => {
+                out.evaluations += spent;
+                let scored: Vec<(f64, usize)> =
+                    tried.par_iter().map(|e| projected_scan(base, experiments, &current, *e, &reference, opts)).collect();
+                let mut order: Vec<usize> = (0..tried.len()).collect();
+                order.sort_by(|&a, &b| scored[a].0.total_cmp(&scored[b].0));
+                let mut kept = Vec::new();
+                for (rank, &i) in order.iter().enumerate() {
+                    if rank < opts.screen_prepare && scored[i].0 < 0.0 {
+                        out.evaluations += scored[i].1;
+                        kept.push(tried[i]);
+                    } else {
+                        let mut c = Candidate::new(round, tried[i].name());
+                        c.screened_out = true;
+                        c.delta_ic = scored[i].0;
+                        c.evaluations = scored[i].1;
+                        c.fit_message = "screened out by the projected scan".into();
+                        c.fail(
+                            "screen",
+                            format!(
+                                "screened out: projected-scan ΔIC {:.1} is not below 0 or not among the best {} of the round",
+                                scored[i].0, opts.screen_prepare
+                            ),
+                        );
+                        pruned.push(c);
+                    }
+                }
+                opts.progress.say(&format!(
+                    "  projected scan: {}",
+                    order.iter().map(|&i| format!("{} {:.0}", tried[i].name(), scored[i].0)).collect::<Vec<_>>().join(", ")
+                ));
+                kept
+            }
+            _ => tried,
+        };
         let mut preps: Vec<_> =
             tried.par_iter().map(|e| prepare(base, experiments, &current, *e, Pass { round, rescue: false }, opts)).collect();
         let best =
@@ -259,7 +315,11 @@ pub fn search<'a>(
         // preparations is kept. Not only when no candidate improved: a wrong
         // candidate can improve a little on the bent calibration, which
         // then screens out the right one by the relative test.
-        if current.effects.is_empty() && !current.fit.converged && current.short.is_some() {
+        if current.effects.is_empty()
+            && !current.fit.converged
+            && current.short.is_some()
+            && best_short.partial_cmp(&-RESCUE_UNLESS) != Some(std::cmp::Ordering::Less)
+        {
             let again: Vec<_> =
                 tried.par_iter().map(|e| prepare(base, experiments, &current, *e, Pass { round, rescue: true }, opts)).collect();
             for (i, p) in again.into_iter().enumerate() {
@@ -312,22 +372,27 @@ pub fn search<'a>(
         let mut results = results;
         for (s, c) in results.iter_mut() {
             if s.is_some() && c.delta_ic >= -th.ic {
-                c.reasons.push(format!("information criterion: ΔIC = {:.1} is not below -{} (effective sample sizes)", c.delta_ic, th.ic));
+                c.fail(
+                    "information_criterion",
+                    format!("information criterion: ΔIC = {:.1} is not below -{} (effective sample sizes)", c.delta_ic, th.ic),
+                );
             }
         }
-        // held-out and floor tests for the candidates that passed the rest
-        if results.iter().any(|(s, c)| s.is_some() && c.reasons.is_empty()) {
+        // held-out and floor tests for every candidate fitted on the full
+        // records (a few simulations each): they decide, and for one that
+        // failed another test they grade the verdict (crate::report)
+        if results.iter().any(|(s, _)| s.is_some()) {
             out.evaluations += ensure_heldout(base, experiments, &mut current, opts)?;
             if current.effects.is_empty() {
                 out.baseline_heldout = current.heldout.clone();
             }
             let reference = current.heldout.clone().ok_or("no held-out reference")?;
             results.par_iter_mut().for_each(|(s, c)| {
-                let Some(s) = s.as_mut().filter(|_| c.reasons.is_empty()) else { return };
+                let Some(s) = s.as_mut() else { return };
                 match ensure_heldout(base, experiments, s, opts) {
                     Ok(e) => c.evaluations += e,
                     Err(e) => {
-                        c.reasons.push(format!("held-out prediction failed: {e}"));
+                        c.fail("heldout_gain", format!("held-out prediction failed: {e}"));
                         return;
                     }
                 }
@@ -336,8 +401,15 @@ pub fn search<'a>(
                 c.heldout_rmse = h.rmse();
                 c.heldout_gain = cmp.gain;
                 c.floor_ratio = cmp.ratio;
-                c.reasons.extend(heldout_reasons(&cmp, &th));
+                c.heldout_relative = cmp.relative;
+                for (test, why) in heldout_failures(&cmp, &th) {
+                    c.fail(test, why);
+                }
             });
+        }
+        for c in pruned {
+            out.evaluations += c.evaluations;
+            out.candidates.push(c);
         }
         let mut passing: Vec<(Structure<'a>, Candidate)> = Vec::new();
         for (s, mut c) in results {
@@ -364,9 +436,8 @@ pub fn search<'a>(
             }
             Decision::Select(a) => {
                 let (mut s, c) = passing.swap_remove(a);
-                if round < opts.max_effects {
-                    out.evaluations += polish(base, experiments, &mut s, opts)?;
-                }
+                // always: the candidate's fit held the form parameters
+                out.evaluations += polish(base, experiments, &mut s, opts)?;
                 // the effect's parameters as the (possibly polished) model holds them
                 let slot = s.effects.len() - 1;
                 let params = s
