@@ -143,6 +143,10 @@ pub struct Summary {
     pub dropped: Vec<(String, String)>,
     /// Channels the final model does not explain.
     pub remainder: Vec<Remainder>,
+    /// Per channel: the final model's normalised RMSE at the fitted samples
+    /// (computed with or without the report; above `remainder_rmse` it makes
+    /// the remainder significant, see [`verdict`]).
+    pub fitted_rmse: BTreeMap<String, f64>,
     pub after: ModelSummary,
     pub thresholds: Thresholds,
     /// Sensor errors fitted as nuisance parameters.
@@ -423,7 +427,11 @@ pub const MOST_OF_THE_GAP: f64 = 0.5;
 
 /// The one-line verdict and its grade. After the named effects (or
 /// ambiguity), when nothing was named in the last round, the candidate of
-/// that round that removed the largest share of the excess χ² grades it:
+/// that round that removed the largest share of the excess χ² grades it —
+/// when nothing is named, always; after a named effect only when what the
+/// final model leaves is itself `significant` (a channel above
+/// `remainder_rmse`, [`crate::selection::significant`]): a share of a gap
+/// within the noise and the model-form floor is no finding:
 /// - **law outside the catalogue** when it removed at least
 ///   [`MOST_OF_THE_GAP`] in-sample (ΔIC below zero) but failed the
 ///   held-out tests — it does not predict the experiments it was not fitted
@@ -434,7 +442,13 @@ pub const MOST_OF_THE_GAP: f64 = 0.5;
 ///   remainder threshold, else **nothing**.
 ///
 /// "No missing effect" is never said while a candidate removed most of the gap.
-pub fn verdict(selected: &[Selected], ambiguous: &[String], remainder: &[Remainder], candidates: &[Candidate]) -> (String, Grade) {
+pub fn verdict(
+    selected: &[Selected],
+    ambiguous: &[String],
+    remainder: &[Remainder],
+    candidates: &[Candidate],
+    significant: bool,
+) -> (String, Grade) {
     let names = |s: &[Selected]| s.iter().map(|s| s.effect.as_str()).collect::<Vec<_>>().join(", then ");
     let named = if selected.is_empty() {
         String::new()
@@ -455,7 +469,7 @@ pub fn verdict(selected: &[Selected], ambiguous: &[String], remainder: &[Remaind
         .iter()
         .filter(|c| c.round == last_round && !c.screened_out && !c.accepted && c.gap_explained.is_finite())
         .max_by(|a, b| a.gap_explained.total_cmp(&b.gap_explained))
-        .filter(|c| c.gap_explained >= MOST_OF_THE_GAP && c.delta_ic < 0.0);
+        .filter(|c| c.gap_explained >= MOST_OF_THE_GAP && c.delta_ic < 0.0 && (selected.is_empty() || significant));
     let grade_of = |c: &Candidate| -> Grade {
         let heldout = c.failed.iter().any(|t| t == "heldout_gain" || t == "model_form_floor");
         if heldout && (c.heldout_gain.is_nan() || c.heldout_gain <= 0.0 || c.failed.iter().any(|t| t == "heldout_gain")) {
@@ -558,13 +572,16 @@ mod tests {
         assert_eq!((r[0].channel.as_str(), r[0].phase), ("piston.x", Phase::Steady));
         // excess: steady 400·15 = 6000, switching 100·3 = 300
         assert!((r[0].share - 6000.0 / 6300.0).abs() < 1e-12);
-        let (v, g) = verdict(&[], &[], &r, &[]);
+        let (v, g) = verdict(&[], &[], &r, &[], true);
         assert!(v.starts_with("no catalogue effect explains the gap; unexplained remainder in piston.x during steady"), "{v}");
         assert_eq!(g, Grade::UnexplainedRemainder);
         let sel = vec![Selected { effect: "valve_delay".into(), params: BTreeMap::new() }];
-        assert_eq!(verdict(&sel, &[], &[], &[]), ("missing effect: valve_delay".to_string(), Grade::Named));
-        assert_eq!(verdict(&sel, &["a".into(), "b".into()], &[], &[]).0, "missing effect: valve_delay; then ambiguous between a and b");
-        assert_eq!(verdict(&[], &[], &[], &[]), ("no missing effect found".to_string(), Grade::Nothing));
+        assert_eq!(verdict(&sel, &[], &[], &[], false), ("missing effect: valve_delay".to_string(), Grade::Named));
+        assert_eq!(
+            verdict(&sel, &["a".into(), "b".into()], &[], &[], true).0,
+            "missing effect: valve_delay; then ambiguous between a and b"
+        );
+        assert_eq!(verdict(&[], &[], &[], &[], false), ("no missing effect found".to_string(), Grade::Nothing));
     }
 
     fn tried(effect: &str, gap: f64, failed: &[&str], heldout_gain: f64) -> Candidate {
@@ -582,7 +599,7 @@ mod tests {
     fn a_candidate_that_removed_most_of_the_gap_grades_the_verdict() {
         // failed only the parameter test: likely, not confirmed, with the test named
         let c = tried("heat_transfer", 0.97, &["parameter"], 5.0);
-        let (v, g) = verdict(&[], &[], &[], &[c]);
+        let (v, g) = verdict(&[], &[], &[], &[c], false);
         assert_eq!(g, Grade::Likely);
         assert!(
             v.starts_with("likely, not confirmed: heat_transfer removes 97 % of the excess χ²") && v.contains("parameter failed"),
@@ -590,9 +607,29 @@ mod tests {
         );
         // fits in-sample, predicts held-out experiments worse: law outside the catalogue
         let c = tried("piston_seal_leak", 0.8, &["heldout_gain", "model_form_floor"], -40.0);
-        assert_eq!(verdict(&[], &[], &[], &[c]).1, Grade::LawOutsideCatalogue);
+        assert_eq!(verdict(&[], &[], &[], &[c], false).1, Grade::LawOutsideCatalogue);
         // a candidate that removed little does not grade anything
         let c = tried("dead_volume", 0.2, &["parameter"], 1.0);
-        assert_eq!(verdict(&[], &[], &[], &[c]).1, Grade::Nothing);
+        assert_eq!(verdict(&[], &[], &[], &[c], false).1, Grade::Nothing);
+    }
+
+    #[test]
+    fn after_a_named_effect_only_a_significant_remainder_is_graded() {
+        // the nominal seal-leak run: the leak named in round 1; in round 2
+        // stribeck_friction removed 61 % of the small excess left in-sample
+        // and failed the held-out tests
+        let sel = vec![Selected { effect: "piston_seal_leak".into(), params: BTreeMap::new() }];
+        let mut c = tried("stribeck_friction", 0.61, &["heldout_gain", "model_form_floor"], -0.2);
+        c.round = 2;
+        // what the leak leaves is within the remainder threshold: the leak alone
+        let (v, g) = verdict(&sel, &[], &[], std::slice::from_ref(&c), false);
+        assert_eq!((v.as_str(), g), ("missing effect: piston_seal_leak", Grade::Named));
+        // a significant remainder is graded as before
+        let (v, g) = verdict(&sel, &[], &[], &[c], true);
+        assert_eq!(g, Grade::LawOutsideCatalogue);
+        assert!(
+            v.starts_with("missing effect: piston_seal_leak; then mechanism found, law outside the catalogue: stribeck_friction"),
+            "{v}"
+        );
     }
 }

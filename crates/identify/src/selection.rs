@@ -32,6 +32,17 @@
 //! candidate fits that chose it were cut short, and the next round's nested
 //! candidates must not be credited with a better calibration of it.
 //!
+//! # After an effect is named
+//! A later round declares "ambiguous between A and B" only when what the
+//! named effects leave is itself significant: a channel whose normalised
+//! RMSE at the fitted samples ([`fitted_rmse`]) is above `remainder_rmse`,
+//! the threshold of the report's unexplained remainder. Two candidates that
+//! each lower a remainder already within that threshold do not make the
+//! named effects uncertain; the search stops with them, and the two are
+//! recorded as failing the `remainder` test ([`decide_after`]). A single
+//! candidate that passes every test is still named (it is what an unmasked
+//! second effect, a leak behind a valve delay, looks like).
+//!
 //! # Backward check
 //! With two or more effects named, each is removed in turn from the final
 //! model (refitted without it) and kept only if the final model passes the
@@ -46,6 +57,7 @@ use crate::fit::{fit_once, fit_short_stages, screen_horizon, FitOptions};
 use crate::heldout::{leave_one_out, HeldOut};
 use crate::options::{Options, Thresholds};
 use crate::params::{FitParam, Target};
+use crate::stats::BlockStats;
 use graph::FlatNetlist;
 use rayon::prelude::*;
 use serde::Serialize;
@@ -71,6 +83,8 @@ pub struct Search<'a> {
     pub dropped: Vec<(String, String)>,
     /// The baseline's held-out errors (when computed).
     pub baseline_heldout: Option<HeldOut>,
+    /// Per channel: the final model's normalised RMSE at the fitted samples ([`fitted_rmse`]).
+    pub fitted_rmse: BTreeMap<String, f64>,
     pub evaluations: usize,
     pub timing: BTreeMap<String, f64>,
 }
@@ -148,6 +162,42 @@ pub fn decide(passing: &[(f64, f64)], ambiguity: f64) -> Decision {
             }
         }
     }
+}
+
+/// [`decide`] for a round after `named` effects: an ambiguity there is
+/// declared only when what the named effects leave is `significant`
+/// ([`significant`]); otherwise the round concludes nothing.
+pub fn decide_after(passing: &[(f64, f64)], th: &Thresholds, named: usize, significant: bool) -> Decision {
+    match decide(passing, th.ambiguity) {
+        Decision::Ambiguous(..) if named > 0 && !significant => Decision::None,
+        d => d,
+    }
+}
+
+/// Per channel, pooled over experiments: the normalised RMSE √(Σr²/n) of a
+/// fit's data rows. `signals[b]` names the channel of block b (the blocks of
+/// [`crate::problem::Problem::blocks`], in the order of `stats`).
+pub fn fitted_rmse(signals: &[String], stats: &BlockStats) -> BTreeMap<String, f64> {
+    let mut sums: BTreeMap<String, (f64, usize)> = BTreeMap::new();
+    for (name, (chi2, n)) in signals.iter().zip(stats.chi2.iter().zip(&stats.n)) {
+        let e = sums.entry(name.clone()).or_insert((0.0, 0));
+        e.0 += chi2;
+        e.1 += n;
+    }
+    sums.into_iter().filter(|(_, (_, n))| *n > 0).map(|(k, (c, n))| (k, (c / n as f64).sqrt())).collect()
+}
+
+/// Whether what a model leaves is itself significant: a channel above
+/// `remainder_rmse`, the threshold of the report's unexplained remainder.
+pub fn significant(rmse: &BTreeMap<String, f64>, th: &Thresholds) -> bool {
+    rmse.values().any(|&r| r > th.remainder_rmse)
+}
+
+/// [`fitted_rmse`] of a fitted structure.
+fn structure_rmse(base: &FlatNetlist, experiments: &[Experiment], s: &Structure, opts: &Options) -> BTreeMap<String, f64> {
+    let problem = problem_for(base, experiments, s.effects.clone(), s.params.clone(), opts);
+    let signals: Vec<String> = problem.blocks().iter().map(|b| experiments[b.experiment].channels[b.channel].signal.clone()).collect();
+    fitted_rmse(&signals, &s.fit.stats)
 }
 
 /// Compute a structure's held-out errors if not known yet; returns simulations spent.
@@ -238,6 +288,7 @@ pub fn search<'a>(
         alternatives: Vec::new(),
         dropped: Vec::new(),
         baseline_heldout: None,
+        fitted_rmse: BTreeMap::new(),
         evaluations: 0,
         timing: BTreeMap::new(),
     };
@@ -427,7 +478,22 @@ pub fn search<'a>(
         }
         out.timing.insert(format!("round {round}"), clock.elapsed().as_secs_f64());
         let scores: Vec<(f64, f64)> = passing.iter().map(|(_, c)| (c.delta_ic, c.heldout_gain)).collect();
-        match decide(&scores, th.ambiguity) {
+        let left = structure_rmse(base, experiments, &current, opts);
+        let decision = decide_after(&scores, &th, current.effects.len(), significant(&left, &th));
+        if decision == Decision::None && decide(&scores, th.ambiguity) != Decision::None {
+            // two candidates tie on a remainder within the threshold: not an ambiguity of the named effects
+            let (channel, worst) = left.iter().max_by(|a, b| a.1.total_cmp(b.1)).map_or(("-", f64::NAN), |(k, v)| (k.as_str(), *v));
+            let why = format!(
+                "remainder: what the named effects leave is not significant (largest normalised RMSE {worst:.2} in {channel}, threshold {}); passed the other tests on it",
+                th.remainder_rmse
+            );
+            opts.progress.say(&format!("  round {round}: {why}"));
+            for c in out.candidates.iter_mut().filter(|c| c.round == round && c.accepted) {
+                c.accepted = false;
+                c.fail("remainder", why.clone());
+            }
+        }
+        match decision {
             Decision::None => break,
             Decision::Ambiguous(a, b) => {
                 out.ambiguous = vec![passing[a].1.effect.clone(), passing[b].1.effect.clone()];
@@ -481,6 +547,7 @@ pub fn search<'a>(
         }
         out.timing.insert("backward check".into(), clock.elapsed().as_secs_f64());
     }
+    out.fitted_rmse = structure_rmse(base, experiments, &current, opts);
     out.model = current;
     Ok(out)
 }
@@ -503,6 +570,33 @@ mod tests {
         // gains 8 and 7.5: within 10 % → ambiguous, best first
         assert_eq!(decide(&[(-800.0, 7.5), (-850.0, 8.0)], 0.1), Decision::Ambiguous(1, 0));
         assert_eq!(decide(&[(-800.0, 7.5), (-850.0, 8.0)], 0.05), Decision::Select(1));
+    }
+
+    #[test]
+    fn after_a_named_effect_a_tie_is_ambiguous_only_on_a_significant_remainder() {
+        let th = Thresholds::default();
+        // the nominal valve-delay run's second round: two candidates pass
+        // with held-out gains within 10 % of each other
+        let tie = [(-300.0, 0.30), (-280.0, 0.29)];
+        // what the valve delay leaves: position 1.2, pressures near the noise
+        let signals: Vec<String> = ["piston.x", "head.p", "piston.x", "head.p"].iter().map(|s| s.to_string()).collect();
+        let stats = BlockStats {
+            chi2: vec![1.44 * 500.0, 1.05 * 400.0, 1.44 * 300.0, 1.1 * 400.0],
+            n: vec![500, 400, 300, 400],
+            tau: vec![1.0; 4],
+        };
+        let left = fitted_rmse(&signals, &stats);
+        assert!((left["piston.x"] - 1.2).abs() < 1e-12 && (left["head.p"] - 1.075f64.sqrt()).abs() < 1e-12);
+        assert!(!significant(&left, &th));
+        assert_eq!(decide_after(&tie, &th, 1, significant(&left, &th)), Decision::None);
+        // a remainder above the threshold keeps the ambiguity
+        let stats = BlockStats { chi2: vec![9.0 * 500.0, 400.0, 9.0 * 300.0, 400.0], ..stats };
+        let left = fitted_rmse(&signals, &stats);
+        assert!(significant(&left, &th));
+        assert_eq!(decide_after(&tie, &th, 1, true), Decision::Ambiguous(0, 1));
+        // with nothing named yet the tie is always ambiguous, and a clear winner is always named
+        assert_eq!(decide_after(&tie, &th, 0, false), Decision::Ambiguous(0, 1));
+        assert_eq!(decide_after(&[(-300.0, 0.30), (-100.0, 0.1)], &th, 1, false), Decision::Select(0));
     }
 
     #[test]

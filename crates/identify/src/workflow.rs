@@ -124,7 +124,11 @@ pub fn run(base: &FlatNetlist, experiments: &[Experiment], calibrate: &[CalibSpe
     }
     timing.insert("report".to_string(), report_clock.elapsed().as_secs_f64());
     let noise = experiments.iter().map(|e| (e.name.clone(), e.channels.iter().map(|c| (c.signal.clone(), c.sigma)).collect())).collect();
-    let (verdict_text, grade) = verdict(&found.selected, &found.ambiguous, &remainder, &found.candidates);
+    // what the final model leaves is significant when the report finds a
+    // remainder at full resolution, or (report or not) a channel at the
+    // fitted samples is above the same threshold
+    let significant = !remainder.is_empty() || crate::selection::significant(&found.fitted_rmse, &opts.thresholds);
+    let (verdict_text, grade) = verdict(&found.selected, &found.ambiguous, &remainder, &found.candidates, significant);
     let summary = Summary {
         baseline: baseline_summary,
         candidates: found.candidates,
@@ -134,6 +138,7 @@ pub fn run(base: &FlatNetlist, experiments: &[Experiment], calibrate: &[CalibSpe
         ambiguous: found.ambiguous,
         dropped: found.dropped,
         remainder,
+        fitted_rmse: found.fitted_rmse,
         after: after_summary,
         thresholds: opts.thresholds,
         sensor_model: opts.sensors,
