@@ -345,7 +345,7 @@ struct Table {
 }
 
 fn read_table(path: &Path) -> Result<Table, AppError> {
-    let text = std::fs::read(path).map_err(|e| AppError::io(path, e))?;
+    let text = crate::load::read_input(path, "result").map_err(|e| AppError::io(path, e))?;
     let mut reader = csv::ReaderBuilder::new().has_headers(true).trim(csv::Trim::All).from_reader(text.as_slice());
     let csv_error = |e: csv::Error| match e.position() {
         Some(pos) => AppError::Data(format!("{}: line {}: {}", path.display(), pos.line(), csv_message(&e))),

@@ -50,8 +50,11 @@ fn mechanical_node(c: &Circuit, r: PortRef) -> Option<usize> {
     }
 }
 
+/// A length in mm for a message, rounded to 1 nm unless that hides it.
 fn mm(x: f64) -> String {
-    format!("{} mm", (x * 1e3 * 1e6).round() / 1e6)
+    let v = x * 1e3;
+    let rounded = (v * 1e6).round() / 1e6;
+    format!("{} mm", units::show::num(if rounded != 0.0 && rounded.is_finite() { rounded } else { v }))
 }
 
 /// All warnings for a built circuit.
@@ -125,7 +128,11 @@ pub fn check(c: &Circuit) -> Vec<Warning> {
         if p < p_amb {
             warn(
                 &mut warnings,
-                format!("{name} = {:.4} bar is below {amb_name} ({:.4} bar): pressures are absolute", p / 1e5, p_amb / 1e5),
+                format!(
+                    "{name} = {} bar is below {amb_name} ({} bar): pressures are absolute",
+                    units::show::fixed(p / 1e5, 4),
+                    units::show::fixed(p_amb / 1e5, 4)
+                ),
             );
         }
     }
@@ -139,8 +146,11 @@ pub fn check(c: &Circuit) -> Vec<Warning> {
             warn(
                 &mut warnings,
                 format!(
-                    "{} takes the value {v}, between the released ({released}) and actuated ({actuated}) levels of {}",
+                    "{} takes the value {}, between the released ({}) and actuated ({}) levels of {}",
                     c.port_name(*src),
+                    units::show::num(*v),
+                    units::show::num(released),
+                    units::show::num(actuated),
                     c.port_name(r)
                 ),
             );
@@ -163,9 +173,9 @@ pub fn errors(c: &Circuit) -> Result<(), GraphError> {
                     id: inst.id.clone(),
                     param: "p_set".into(),
                     message: format!(
-                        "set to {:.4} bar, not below the supply that reaches it ({source} = {:.4} bar); pressures are absolute",
-                        p_set / 1e5,
-                        p_supply / 1e5
+                        "set to {} bar, not below the supply that reaches it ({source} = {} bar); pressures are absolute",
+                        units::show::fixed(p_set / 1e5, 4),
+                        units::show::fixed(p_supply / 1e5, 4)
                     ),
                 });
             }

@@ -93,7 +93,7 @@ pub fn parse(text: &str, origin: &str) -> Result<Netlist, GraphError> {
 
 /// Load, parse and expand the netlist at `path`.
 pub fn load(loader: &dyn Loader, path: &Path) -> Result<FlatNetlist, GraphError> {
-    let text = loader.read(path).map_err(|message| GraphError::Io { file: path.display().to_string(), message })?;
+    let text = loader.read(path).map_err(|message| GraphError::Io { file: crate::escape(&path.display().to_string()), message })?;
     let netlist = parse(&text, &path.display().to_string())?;
     expand(loader, &netlist, path, &mut vec![path.to_path_buf()])
 }
@@ -107,7 +107,7 @@ pub fn flatten(loader: &dyn Loader, netlist: &Netlist, dir: &Path, depth: usize)
 }
 
 fn valid_user_id(id: &str) -> bool {
-    !id.is_empty() && id.chars().all(|c| c.is_ascii_alphanumeric() || c == '_' || c == '-')
+    !id.is_empty() && id.len() <= crate::MAX_NAME_CHARS && id.chars().all(|c| c.is_ascii_alphanumeric() || c == '_' || c == '-')
 }
 
 /// Expand `netlist`, read from `file`; `chain` lists the files including it (itself last).
@@ -177,7 +177,7 @@ fn expand(loader: &dyn Loader, netlist: &Netlist, file: &Path, chain: &mut Vec<P
             };
             return Err(GraphError::Subsystem { id: c.id.clone(), message: format!("{why}: {}", files.join(" -> ")) });
         }
-        let text = loader.read(&path).map_err(|message| GraphError::Io { file: path.display().to_string(), message })?;
+        let text = loader.read(&path).map_err(|message| GraphError::Io { file: crate::escape(&path.display().to_string()), message })?;
         let sub = parse(&text, &path.display().to_string())?;
         chain.push(path.clone());
         let inner = expand(loader, &sub, &path, chain)?;
@@ -298,6 +298,20 @@ pub fn value_from_text(text: &str) -> Value {
     }
 }
 
+/// The forms `--set` takes, for its messages.
+const SET_FORM: &str = "expected ID.PARAM=VALUE (e.g. supply.p=6 bar), or NAME=VALUE for a netlist parameter";
+
+/// Names for a message: the first few, then how many there are in all.
+fn name_list<S: AsRef<str>>(names: &[S]) -> String {
+    const SHOWN: usize = 12;
+    let shown: Vec<&str> = names.iter().take(SHOWN).map(AsRef::as_ref).collect();
+    if names.len() > SHOWN {
+        format!("{}, … ({} in all)", shown.join(", "), names.len())
+    } else {
+        shown.join(", ")
+    }
+}
+
 /// Apply an override "NAME=VALUE" to the flat netlist: a parameter
 /// (`p_supply`, `cyl.bore`), an interface parameter of a subsystem
 /// (`cyl.T0`), a component parameter (`supply.p`, `cyl.piston.mass`),
@@ -305,8 +319,11 @@ pub fn value_from_text(text: &str) -> Value {
 /// expression (`"rod.p0== supply.p"`), evaluated at the top level.
 pub fn apply_set(flat: &mut FlatNetlist, assignment: &str) -> Result<(), GraphError> {
     let bad = |message: &str| GraphError::Set { assignment: crate::escape(assignment), message: message.to_string() };
-    let (target, value) = assignment.split_once('=').ok_or_else(|| bad("expected NAME=VALUE (e.g. supply.p=6 bar)"))?;
+    let (target, value) = assignment.split_once('=').ok_or_else(|| bad(SET_FORM))?;
     let target = target.trim();
+    if target.is_empty() {
+        return Err(bad(&format!("nothing before \"=\": {SET_FORM}")));
+    }
     if let Some(p) = flat.parameters.iter_mut().find(|p| p.name == target) {
         p.value = value_from_text(value);
         p.scope = String::new();
@@ -321,9 +338,9 @@ pub fn apply_set(flat: &mut FlatNetlist, assignment: &str) -> Result<(), GraphEr
     let (id, param) = split_ref(target).ok_or_else(|| {
         let known: Vec<&str> = flat.parameters.iter().map(|p| p.name.as_str()).filter(|n| !n.contains('.')).collect();
         if known.is_empty() {
-            bad("expected ID.PARAM=VALUE")
+            bad(&format!("\"{}\" is not ID.PARAM: {SET_FORM}", crate::escape(target)))
         } else {
-            bad(&format!("no parameter \"{}\" (parameters: {})", crate::escape(target), known.join(", ")))
+            bad(&format!("no parameter \"{}\" (parameters: {}; or {SET_FORM})", crate::escape(target), name_list(&known)))
         }
     })?;
     if id == "simulation" {
@@ -337,7 +354,7 @@ pub fn apply_set(flat: &mut FlatNetlist, assignment: &str) -> Result<(), GraphEr
 
 /// Write `value` into `id.param` of a component, as a top-level value.
 fn set_component_value(flat: &mut FlatNetlist, target: &str, value: &str) -> Result<(), String> {
-    let (id, param) = split_ref(target).ok_or_else(|| "expected ID.PARAM=VALUE".to_string())?;
+    let (id, param) = split_ref(target).ok_or_else(|| SET_FORM.to_string())?;
     let scope_ids = |flat: &FlatNetlist| -> Vec<String> {
         let mut ids: Vec<String> = flat.components.iter().map(|c| c.id.clone()).collect();
         ids.sort();
@@ -354,10 +371,10 @@ fn set_component_value(flat: &mut FlatNetlist, target: &str, value: &str) -> Res
                 .filter_map(|n| n.strip_prefix(&format!("{id}.")).map(str::to_string))
                 .filter(|n| !n.contains('.'))
                 .collect();
-            format!("subsystem \"{}\" has no parameter \"{}\" (it has: {})", crate::escape(id), crate::escape(param), names.join(", "))
+            format!("subsystem \"{}\" has no parameter \"{}\" (it has: {})", crate::escape(id), crate::escape(param), name_list(&names))
         } else {
             let ids = scope_ids(flat);
-            format!("no component \"{}\" (components: {})", crate::escape(id), ids.join(", "))
+            format!("no component \"{}\" (components: {})", crate::escape(id), name_list(&ids))
         });
     };
     let in_init = comp.init.remove(param).is_some();

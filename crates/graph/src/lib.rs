@@ -40,26 +40,18 @@ impl std::fmt::Display for Warning {
     }
 }
 
-/// Text from the user made safe to echo in a one-line message: control
-/// characters (newlines, escapes, ...) are shown as `\u{..}`, and very long
-/// text is cut.
+/// Text from the user made safe to echo in a one-line message: hidden
+/// characters (newlines, escapes, ...) shown as `\u{..}`, long text
+/// shortened with its length (the one rule of [`units::show::text`]).
 pub fn escape(text: &str) -> String {
-    let mut out = String::new();
-    for (i, c) in text.chars().enumerate() {
-        if i >= 200 {
-            out.push('…');
-            break;
-        }
-        if c.is_control() || matches!(c, '\u{2028}' | '\u{2029}' | '\u{feff}' | '\u{202e}' | '\u{202d}') {
-            out.push_str(&format!("\\u{{{:x}}}", c as u32));
-        } else {
-            out.push(c);
-        }
-    }
-    out
+    units::show::text(text)
 }
 
 use blocks::block::Domain;
+
+/// Longest component id or parameter name a netlist may use [characters]:
+/// every message names them, and one line must stay short.
+pub const MAX_NAME_CHARS: usize = 100;
 
 /// A netlist that cannot be turned into a circuit. Every variant names the
 /// file position, component, parameter or port at fault.
@@ -75,9 +67,12 @@ pub enum GraphError {
     Subsystem { id: String, message: String },
     #[error("--set {assignment}: {message}")]
     Set { assignment: String, message: String },
-    #[error("{file}: component id \"{}\" may contain only letters, digits, '_' and '-'", escape(id))]
+    #[error("{file}: component id \"{}\" may contain only letters, digits, '_' and '-' (at most {MAX_NAME_CHARS})", escape(id))]
     BadId { file: String, id: String },
-    #[error("{file}: parameter name \"{}\" must be a letter or '_' followed by letters, digits or '_' (and not \"pi\")", escape(name))]
+    #[error(
+        "{file}: parameter name \"{}\" must be a letter or '_' followed by letters, digits or '_' (at most {MAX_NAME_CHARS}, and not \"pi\")",
+        escape(name)
+    )]
     BadParameterName { file: String, name: String },
     #[error("{file}: {subject}: {message}")]
     Parameter { file: String, subject: String, message: String },

@@ -12,6 +12,7 @@ pub mod budget;
 pub mod interface;
 pub mod jacobian;
 pub mod junction;
+pub mod linearize;
 pub mod mechanics;
 pub mod model;
 pub mod rest;

@@ -18,6 +18,7 @@ use blocks::block::{CycleRecord, EventKind, MechState};
 use ode::{Advance, Dense, Integrator, IntegratorError, OdeSystem, Options, RhsError, RootDirection, Rosenbrock};
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
+use units::show::{fixed, num};
 
 /// A request to stop runs early, shared between the runs and whoever may
 /// cancel them (Ctrl-C in the Python package). Clones share one flag; a run
@@ -155,30 +156,31 @@ impl FinalState {
             .iter()
             .map(|m| {
                 format!(
-                    "{} {} at x = {:.1} mm, net force {:.1} N against a breakaway level of {:.1} N",
+                    "{} {} at x = {} mm, net force {} N against a breakaway level of {} N",
                     m.id,
                     m.mode,
-                    (m.x * 1e4).round() / 10.0 + 0.0, // rounded, and + 0.0 turns -0.0 into 0.0
-                    m.applied,
-                    m.breakaway
+                    fixed(m.x * 1e3 + 0.0, 1), // + 0.0 turns -0.0 into 0.0
+                    fixed(m.applied, 1),
+                    fixed(m.breakaway, 1)
                 )
             })
             .collect();
         if !self.pressures.is_empty() {
-            let p: Vec<String> = self.pressures.iter().map(|(id, p)| format!("{id}.p = {:.3} bar", p / 1e5)).collect();
+            let p: Vec<String> = self.pressures.iter().map(|(id, p)| format!("{id}.p = {} bar", fixed(p / 1e5, 3))).collect();
             parts.push(p.join(", "));
         }
         parts.join("; ")
     }
 }
 
-fn mode_name(mode: Mode) -> &'static str {
+pub(crate) fn mode_name(mode: Mode) -> &'static str {
     match mode {
         Mode::Sliding { dir } if dir > 0.0 => "sliding, extending",
         Mode::Sliding { .. } => "sliding, retracting",
         Mode::Held { may_extend: false, .. } => "at the upper stop",
         Mode::Held { may_retract: false, .. } => "at the lower stop",
         Mode::Held { .. } => "stuck",
+        Mode::SlidingViscous => "sliding about v = 0 (viscous friction only)",
     }
 }
 
@@ -300,17 +302,17 @@ pub enum SolveError {
     /// The step-size controller gave up: the state named had the largest
     /// weighted error (usually the component whose parameters make the
     /// problem ill-posed or whose time scale is far below the others).
-    #[error("integration failed: step size fell below {h:.1e} s at t = {t} s (largest error in {state}; check that component's parameters, or raise simulation.rtol)")]
+    #[error("integration failed: step size fell below {h:.1e} s at t = {} s (largest error in {state}; check that component's parameters, or raise simulation.rtol)", num(*t))]
     StepTooSmall { t: f64, h: f64, state: String },
-    #[error("more than {limit} events by t = {t} s (chattering between modes?)")]
+    #[error("more than {limit} events by t = {} s (chattering between modes?)", num(*t))]
     TooManyEvents { t: f64, limit: usize },
-    #[error("at t = {t} s the event conditions of {roots} still hold after handling them {rounds} times")]
+    #[error("at t = {} s the event conditions of {roots} still hold after handling them {rounds} times", num(*t))]
     Unsettled { t: f64, roots: String, rounds: usize },
     #[error("invalid settings: {0}")]
     Settings(String),
     #[error("{0}")]
     Rest(#[from] crate::rest::RestError),
-    #[error("cancelled at t = {t} s")]
+    #[error("cancelled at t = {} s", num(*t))]
     Cancelled { t: f64 },
 }
 
@@ -452,10 +454,10 @@ pub fn simulate_observed(model: &mut Model, opts: &SimOptions, observer: &mut dy
 
 fn run(model: &mut Model, opts: &SimOptions, mut observer: Option<&mut dyn FnMut(&Checkpoint)>) -> Result<SimResult, SolveError> {
     if !(opts.t_end > 0.0 && opts.t_end.is_finite()) {
-        return Err(SolveError::Settings(format!("end time must be > 0 s, got {}", opts.t_end)));
+        return Err(SolveError::Settings(format!("end time must be > 0 s, got {}", num(opts.t_end))));
     }
     if !(opts.rtol > 0.0 && opts.rtol < 1.0 && opts.atol > 0.0) {
-        return Err(SolveError::Settings(format!("tolerances must be in (0, 1): rtol {} atol {}", opts.rtol, opts.atol)));
+        return Err(SolveError::Settings(format!("tolerances must be in (0, 1): rtol {} atol {}", num(opts.rtol), num(opts.atol))));
     }
     let rest =
         if model.circuit.simulation.initial == graph::netlist::InitialMode::Rest { crate::rest::apply(model)? } else { Default::default() };
