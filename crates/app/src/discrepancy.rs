@@ -793,6 +793,13 @@ mod tests {
             gain_ci95: None,
             time_skew: 4e-4,
             time_skew_ci95: Some((3e-4, 5e-4)),
+            offset_prior_sd: f64::INFINITY,
+            gain_prior_sd: 0.0,
+            prior_source: String::new(),
+            offset_z: 0.0,
+            gain_z: 0.0,
+            skew_z: 0.0,
+            symptom: None,
         };
         assert_eq!(sensor_row(&x), "| 4bar | head.p | 10 mbar [9 mbar, 11 mbar] | 0 % | 0.4 ms [0.3 ms, 0.5 ms] |\n");
     }
