@@ -86,14 +86,14 @@ fn meter_out_page_has_the_diagram_the_traces_and_the_tables() {
     assert!(time.len() > 100 && time.windows(2).all(|w| w[0].as_f64() < w[1].as_f64()), "time increases");
     let panels = data["panels"].as_array().unwrap();
     let titles: Vec<&str> = panels.iter().map(|p| p["y_label"].as_str().unwrap()).collect();
-    for want in ["pressure [bar]", "temperature [K]", "position [m]", "velocity [m/s]", "mass flow [kg/s]"] {
+    for want in ["pressure [bar (abs)]", "temperature [K]", "position [mm]", "velocity [m/s]", "mass flow [kg/s]"] {
         assert!(titles.contains(&want), "no {want} panel in {titles:?}");
     }
     let mut distinct = titles.clone();
     distinct.sort();
     distinct.dedup();
     assert_eq!(distinct.len(), titles.len(), "one panel per quantity");
-    let pressure = panels.iter().find(|p| p["y_label"] == "pressure [bar]").unwrap();
+    let pressure = panels.iter().find(|p| p["y_label"] == "pressure [bar (abs)]").unwrap();
     let head = pressure["series"].as_array().unwrap().iter().find(|s| s["label"] == "head.p").unwrap();
     let bar: Vec<f64> = head["values"].as_array().unwrap().iter().filter_map(Value::as_f64).collect();
     assert_eq!(bar.len(), time.len());
