@@ -160,7 +160,7 @@ fn meter_in_puts_the_flow_control_in_the_head_line() {
     // turned over: its free direction a -> b points down, from the cylinder to the valve
     let pins: Vec<(f64, f64)> = d.nets.iter().filter(|n| !n.exhaust).flat_map(|n| n.pins.clone()).collect();
     assert!(pins.iter().any(|p| (p.1 - fc.rect.y).abs() < 0.5) && pins.iter().any(|p| (p.1 - fc.rect.y - fc.rect.h).abs() < 0.5));
-    assert!(d.svg.contains("subsystem lib/cylinder.json"));
+    assert!(d.svg.contains("subsystem lib:cylinder"));
 }
 
 #[test]
