@@ -221,6 +221,15 @@ fn position_control_driven_through_its_input_matches_simulate_and_errors_are_sta
     netlist["connections"].as_array_mut().unwrap().retain(|c| c.get("to").and_then(|t| t.as_str()) != Some("valve.u"));
     netlist["interface"]["inputs"]["u"]["start"] = serde_json::json!(0.3);
     netlist["simulation"]["outputs"] = serde_json::json!(["sensor.x"]);
+    // the shipped model uses the built-in cylinder; refer to it as a file here so
+    // that the test also checks a sub-circuit file travels inside the FMU
+    for c in netlist["components"].as_array_mut().unwrap() {
+        if c["type"] == "cylinder" {
+            let c = c.as_object_mut().unwrap();
+            c.insert("type".into(), serde_json::json!("subsystem"));
+            c.insert("file".into(), serde_json::json!("lib/cylinder.json"));
+        }
+    }
     std::fs::create_dir_all(dir.join("lib")).unwrap();
     std::fs::copy(models().join("lib/cylinder.json"), dir.join("lib/cylinder.json")).unwrap();
     let model = dir.join("position_control.json");
