@@ -39,9 +39,15 @@ fn models() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("../../models")
 }
 
+/// The runtime library of this very build: `cargo test` compiles the crate's
+/// cdylib into the test executable's own folder (`target/release/deps`); only
+/// `cargo build` copies it up to `target/release`, so a copy there may be
+/// stale or, on a fresh clone, missing.
 fn runtime() -> PathBuf {
     let exe = std::env::current_exe().unwrap();
-    exe.parent().unwrap().parent().unwrap().join(pneumo_app::fmu::RUNTIME_LIBRARY)
+    let beside = exe.parent().unwrap().join(pneumo_app::fmu::RUNTIME_LIBRARY);
+    assert!(beside.is_file(), "cargo test did not build the runtime library at {}", beside.display());
+    beside
 }
 
 /// A fresh scratch folder.
