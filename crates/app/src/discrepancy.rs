@@ -32,7 +32,7 @@ use identify::diagnose::Trace;
 use identify::phases::Phase;
 use identify::report::{ModelSummary, Outcome, SensorEstimate};
 use plotters::prelude::{
-    BitMapBackend, ChartBuilder, Color, FontStyle, IntoDrawingArea, IntoLogRange, LineSeries, PathElement, RGBColor, Rectangle,
+    BitMapBackend, ChartBuilder, Circle, Color, FontStyle, IntoDrawingArea, IntoLogRange, LineSeries, PathElement, RGBColor, Rectangle,
     SeriesLabelPosition, BLACK, WHITE,
 };
 use std::fmt::Write as _;
@@ -152,6 +152,15 @@ pub fn run_workflow(
 
 // ---------------------------------------------------------------- text
 
+/// Fixed decimals, "–" for a value that is not a number.
+fn fmt_fixed(v: f64, decimals: usize) -> String {
+    if v.is_finite() {
+        format!("{v:.decimals$}")
+    } else {
+        "–".into()
+    }
+}
+
 fn fmt(v: f64) -> String {
     if !v.is_finite() {
         return "–".into();
@@ -211,9 +220,40 @@ fn sensor_row(x: &SensorEstimate) -> String {
     )
 }
 
+/// The 95 % interval of an estimate as text; at a bound, which one, and
+/// the one-sided interval (see [`identify::candidates::Estimate::ci95`]).
+fn interval_text(e: &Estimate) -> String {
+    let ci = e.ci95.map(|(a, b)| format!("[{}, {}]", shown(e, a), shown(e, b)));
+    if !e.at_bound {
+        return ci.unwrap_or_else(|| "–".into());
+    }
+    let side = if (e.value - e.lo).abs() <= (e.hi - e.value).abs() { "lower" } else { "upper" };
+    match ci {
+        Some(ci) => format!("at the {side} bound; one-sided {ci}"),
+        None => format!("at the {side} bound"),
+    }
+}
+
 fn estimate_row(e: &Estimate) -> String {
-    let ci = e.ci95.map(|(a, b)| format!("[{}, {}]", shown(e, a), shown(e, b))).unwrap_or_else(|| "–".into());
-    format!("| {} | {} | {} |{}\n", e.name, shown(e, e.value), ci, if e.at_bound { " at a bound" } else { "" })
+    format!("| {} | {} | {} |\n", e.name, shown(e, e.value), interval_text(e))
+}
+
+/// The phases that hold samples, in their fixed order: a vessel test shows
+/// charge, discharge and hold, a cylinder its cycle phases.
+fn phases_present(m: &ModelSummary) -> Vec<Phase> {
+    Phase::ALL.iter().copied().filter(|ph| m.diagnosis.phases.iter().any(|p| p.phase == *ph && p.n > 0)).collect()
+}
+
+/// A markdown table; with no rows, a sentence saying so (an empty table is not valid markdown).
+fn table(md: &mut String, header: &[&str], rows: &[Vec<String>], empty: &str) {
+    if rows.is_empty() || header.is_empty() {
+        let _ = writeln!(md, "{empty}");
+        return;
+    }
+    let _ = writeln!(md, "| {} |\n|{}", header.join(" | "), "---|".repeat(header.len()));
+    for r in rows {
+        let _ = writeln!(md, "| {} |", r.join(" | "));
+    }
 }
 
 /// The verdict and the candidates tried, as printed by `pneumo discrepancy`.
@@ -288,6 +328,19 @@ pub fn netlist_json(flat: &graph::FlatNetlist, description: String) -> Result<St
     serde_json::to_string_pretty(&n).map(|s| s + "\n").map_err(|e| AppError::Data(e.to_string()))
 }
 
+/// An analysed model as the file written for it: the user's own netlist
+/// with the analysis's edits ([`crate::written_model`]), or, when the
+/// user's file cannot express them (or is not at hand), the flat netlist,
+/// with the reason in its description.
+pub fn augmented_json(source: Option<&crate::load::Source>, flat: &graph::FlatNetlist, description: String) -> Result<String, AppError> {
+    let why = match source.map(|s| crate::written_model::user_netlist_json(s, flat, &description)) {
+        Some(Ok(text)) => return Ok(text),
+        Some(Err(e)) => e,
+        None => "the model's files are not at hand".to_string(),
+    };
+    netlist_json(flat, format!("{description} Written flat, subsystems expanded: {why}."))
+}
+
 /// File name of an augmented netlist for a structure label ("a+b").
 pub fn model_file(label: &str) -> String {
     if label == "baseline" {
@@ -301,6 +354,8 @@ pub fn model_file(label: &str) -> String {
 
 const FONT: &str = "sans-serif";
 static FONT_BYTES: &[u8] = include_bytes!("../../../assets/fonts/DejaVuSans.ttf");
+/// Fewer measured points than this in a panel are drawn as markers.
+const SPARSE_POINTS: usize = 300;
 const MEASURED: RGBColor = RGBColor(150, 150, 150);
 const BEFORE: RGBColor = RGBColor(255, 127, 14);
 const AFTER: RGBColor = RGBColor(31, 119, 180);
@@ -348,7 +403,9 @@ fn range(values: impl Iterator<Item = f64>) -> (f64, f64) {
 
 /// Measured vs simulated before (and after) for one experiment: per channel
 /// a panel of the traces and a panel of the residuals (simulated − measured)
-/// with the ±σ noise band.
+/// with the ±σ noise band. The model is drawn as simulated; the fitted
+/// sensor errors are taken off the data (see [`identify::diagnose::Trace`]);
+/// sparse data are drawn as markers.
 fn fit_figure(out: &mut Transaction, path: &Path, before: &Trace, after: Option<&Trace>) -> Result<(), AppError> {
     let n = before.signals.len().max(1);
     let size = (1200u32, 60 + 2 * 230 * n as u32);
@@ -393,7 +450,20 @@ fn fit_figure(out: &mut Transaction, path: &Path, before: &Trace, after: Option<
                 .light_line_style(RGBColor(235, 235, 235))
                 .draw()
                 .map_err(|e| e.to_string())?;
-            let mut series: Vec<Series> = vec![("measured", MEASURED, 1, meas), ("baseline", BEFORE, 2, sim0)];
+            // sparse data (a vessel logged every few seconds) as markers: a
+            // line between samples would invent a trajectory
+            let sparse = meas.len() < SPARSE_POINTS;
+            let mut series: Vec<Series> = if sparse {
+                let marks = meas.iter().map(|&p| Circle::new(p, 3, MEASURED.filled()));
+                chart
+                    .draw_series(marks)
+                    .map_err(|e| e.to_string())?
+                    .label("measured")
+                    .legend(|(x, y)| Circle::new((x + 10, y), 3, MEASURED.filled()));
+                vec![("baseline", BEFORE, 2, sim0)]
+            } else {
+                vec![("measured", MEASURED, 1, meas), ("baseline", BEFORE, 2, sim0)]
+            };
             if let Some(s1) = sim1 {
                 series.push(("with effect", AFTER, 2, s1));
             }
@@ -429,9 +499,12 @@ fn fit_figure(out: &mut Transaction, path: &Path, before: &Trace, after: Option<
                 .light_line_style(RGBColor(235, 235, 235))
                 .draw()
                 .map_err(|e| e.to_string())?;
-            chart.draw_series(LineSeries::new(res0, BEFORE.stroke_width(1))).map_err(|e| e.to_string())?;
-            if let Some(r) = res1 {
-                chart.draw_series(LineSeries::new(r, AFTER.stroke_width(1))).map_err(|e| e.to_string())?;
+            for (points, color) in std::iter::once((res0, BEFORE)).chain(res1.map(|r| (r, AFTER))) {
+                if sparse {
+                    chart.draw_series(points.into_iter().map(|p| Circle::new(p, 3, color.filled()))).map_err(|e| e.to_string())?;
+                } else {
+                    chart.draw_series(LineSeries::new(points, color.stroke_width(1))).map_err(|e| e.to_string())?;
+                }
             }
             for band in [-sigma, sigma] {
                 chart.draw_series(LineSeries::new(vec![(t0, band), (t1, band)], BLACK.stroke_width(1))).map_err(|e| e.to_string())?;
@@ -445,6 +518,7 @@ fn fit_figure(out: &mut Transaction, path: &Path, before: &Trace, after: Option<
 fn phase_figure(out: &mut Transaction, path: &Path, before: &ModelSummary, after: Option<&ModelSummary>) -> Result<(), AppError> {
     let channels: Vec<String> = before.diagnosis.channels.keys().cloned().collect();
     let n = channels.len().max(1);
+    let phases = phases_present(before);
     let size = (1200u32, 60 + 280 * n as u32);
     let value = |m: &ModelSummary, ch: &str, ph: Phase| {
         m.diagnosis.phases.iter().find(|p| p.channel == ch && p.phase == ph).map(|p| p.rmse_normalized)
@@ -460,23 +534,23 @@ fn phase_figure(out: &mut Transaction, path: &Path, before: &ModelSummary, after
         let areas = body.split_evenly((n, 1));
         for (ch, area) in channels.iter().zip(areas.iter()) {
             let all: Vec<f64> =
-                Phase::ALL.iter().flat_map(|&ph| [value(before, ch, ph), after.and_then(|a| value(a, ch, ph))]).flatten().collect();
+                phases.iter().flat_map(|&ph| [value(before, ch, ph), after.and_then(|a| value(a, ch, ph))]).flatten().collect();
             let hi = all.iter().copied().fold(2.0_f64, f64::max) * 1.5;
             let lo = all.iter().copied().filter(|v| *v > 0.0).fold(1.0_f64, f64::min).min(1.0) * 0.5;
             let mut chart = ChartBuilder::on(area)
                 .margin(8)
                 .x_label_area_size(40)
                 .y_label_area_size(80)
-                .build_cartesian_2d(0.0..Phase::ALL.len() as f64, (lo..hi).log_scale())
+                .build_cartesian_2d(0.0..phases.len().max(1) as f64, (lo..hi).log_scale())
                 .map_err(|e| e.to_string())?;
             chart
                 .configure_mesh()
                 .y_desc(format!("{ch}: RMSE/σ"))
-                .x_labels(Phase::ALL.len() * 2 + 1)
+                .x_labels(phases.len() * 2 + 1)
                 .x_label_formatter(&|x| {
                     let k = x.floor() as usize;
                     if (x - k as f64 - 0.5).abs() < 0.26 {
-                        Phase::ALL.get(k).map(|p| p.name().to_string()).unwrap_or_default()
+                        phases.get(k).map(|p| p.name().to_string()).unwrap_or_default()
                     } else {
                         String::new()
                     }
@@ -486,7 +560,7 @@ fn phase_figure(out: &mut Transaction, path: &Path, before: &ModelSummary, after
                 .disable_x_mesh()
                 .draw()
                 .map_err(|e| e.to_string())?;
-            for (k, &ph) in Phase::ALL.iter().enumerate() {
+            for (k, &ph) in phases.iter().enumerate() {
                 let x = k as f64;
                 if let Some(v) = value(before, ch, ph) {
                     chart
@@ -500,7 +574,7 @@ fn phase_figure(out: &mut Transaction, path: &Path, before: &ModelSummary, after
                 }
             }
             chart
-                .draw_series(LineSeries::new(vec![(0.0, 1.0), (Phase::ALL.len() as f64, 1.0)], BLACK.stroke_width(1)))
+                .draw_series(LineSeries::new(vec![(0.0, 1.0), (phases.len() as f64, 1.0)], BLACK.stroke_width(1)))
                 .map_err(|e| e.to_string())?;
         }
         root.present().map_err(|e| e.to_string())
@@ -539,32 +613,28 @@ fn model_section(md: &mut String, title: &str, m: &ModelSummary) {
             fmt(c.rmse),
             c.rmse_normalized,
             fmt(c.bias),
-            w.map(|w| format!("{:.3}", w.lag1)).unwrap_or_default(),
-            w.map(|w| format!("{:.1}", w.ljung_box_per_lag)).unwrap_or_default()
+            w.map(|w| fmt_fixed(w.lag1, 3)).unwrap_or_else(|| "–".into()),
+            w.map(|w| fmt_fixed(w.ljung_box_per_lag, 1)).unwrap_or_else(|| "–".into())
         );
     }
-    let _ = writeln!(md, "\nNormalised RMSE per phase of the cycle (share of Σ(r/σ)² in brackets):\n");
+    let _ = writeln!(md, "\nNormalised RMSE per phase of the test (share of Σ(r/σ)² in brackets):\n");
     let chans: Vec<&String> = m.diagnosis.channels.keys().collect();
-    let _ = writeln!(
-        md,
-        "| phase | {} |\n|---|{}",
-        chans.iter().map(|c| c.as_str()).collect::<Vec<_>>().join(" | "),
-        "---|".repeat(chans.len())
-    );
-    for ph in Phase::ALL {
-        let cells: Vec<String> = chans
-            .iter()
-            .map(|ch| {
+    let rows: Vec<Vec<String>> = phases_present(m)
+        .into_iter()
+        .map(|ph| {
+            let cells = chans.iter().map(|ch| {
                 m.diagnosis
                     .phases
                     .iter()
                     .find(|p| p.phase == ph && &p.channel == *ch)
                     .map(|p| format!("{:.2} ({:.0} %)", p.rmse_normalized, 100.0 * p.share))
                     .unwrap_or_else(|| "–".into())
-            })
-            .collect();
-        let _ = writeln!(md, "| {} | {} |", ph.name(), cells.join(" | "));
-    }
+            });
+            std::iter::once(ph.name().to_string()).chain(cells).collect()
+        })
+        .collect();
+    let header: Vec<&str> = std::iter::once("phase").chain(chans.iter().map(|c| c.as_str())).collect();
+    table(md, &header, &rows, "No samples to divide into phases.");
     let _ = writeln!(md, "\nCorrelation of the residuals with candidate regressors:\n");
     let regs: Vec<String> = m.diagnosis.correlations.values().flat_map(|r| r.keys().cloned()).fold(Vec::new(), |mut v, k| {
         if !v.contains(&k) {
@@ -572,11 +642,17 @@ fn model_section(md: &mut String, title: &str, m: &ModelSummary) {
         }
         v
     });
-    let _ = writeln!(md, "| channel | {} |\n|---|{}", regs.join(" | "), "---|".repeat(regs.len()));
-    for (ch, r) in &m.diagnosis.correlations {
-        let cells: Vec<String> = regs.iter().map(|k| r.get(k).map(|v| format!("{v:+.2}")).unwrap_or_default()).collect();
-        let _ = writeln!(md, "| {ch} | {} |", cells.join(" | "));
-    }
+    let rows: Vec<Vec<String>> = m
+        .diagnosis
+        .correlations
+        .iter()
+        .map(|(ch, r)| {
+            std::iter::once(ch.clone()).chain(regs.iter().map(|k| r.get(k).map(|v| format!("{v:+.2}")).unwrap_or_default())).collect()
+        })
+        .collect();
+    let header: Vec<&str> = std::iter::once("channel").chain(regs.iter().map(|r| r.as_str())).collect();
+    let rows = if regs.is_empty() { Vec::new() } else { rows };
+    table(md, &header, &rows, "No candidate regressor applies to this circuit.");
     md.push('\n');
 }
 
@@ -652,16 +728,17 @@ fn stage_report(
     let mut used: Vec<String> = REPORT_FILES.iter().map(|n| n.to_string()).collect();
     // netlists
     let mut model_files = Vec::new();
+    let source = crate::load::Source::read(model_path).ok().map(|(_, s)| s);
     for (label, flat) in &o.augmented {
         let name = model_file(label);
         let description = format!(
-            "{} with the discrepancy workflow's result: {}. Calibrated values written in; per-setting values are in report.md.",
+            "{} with the discrepancy workflow's result: {}. Calibrated values written in; per-experiment values are in report.md.",
             model_path.display(),
             if label == "baseline" { "no missing effect".to_string() } else { format!("added {label}") }
         );
         let path = out.join(&name);
         used.push(name.clone());
-        tx.add(&path, netlist_json(flat, description)?.as_bytes())?;
+        tx.add(&path, augmented_json(source.as_ref(), flat, description)?.as_bytes())?;
         written.push(path);
         model_files.push(name);
     }
@@ -771,6 +848,7 @@ mod tests {
             shown: None,
             std_error: None,
             ci95: None,
+            shown_ci95: None,
             lo: 0.0,
             hi: 1.0,
             at_bound: false,

@@ -26,5 +26,6 @@ pub mod report;
 pub mod run;
 pub mod simulate;
 pub mod sweep;
+pub mod written_model;
 
 pub use error::AppError;

@@ -109,6 +109,13 @@ fn names_the_hidden_leak_and_writes_a_runnable_model_and_report() {
         dir.path("s.json").to_str().unwrap(),
     ]);
     assert!(sim.status.success(), "{}", String::from_utf8_lossy(&sim.stderr));
+    // it is the user's netlist (parameters block, expressions) and loads without a warning
+    assert_eq!(netlist["parameters"]["bore"]["value"], "45 mm");
+    let head = netlist["components"].as_array().unwrap().iter().find(|c| c["id"] == "head").expect("head");
+    assert_eq!(head["params"]["bore"], "= bore");
+    let check = pneumo(&["check", report.join("model_with_piston_seal_leak.json").to_str().unwrap()]);
+    let stderr = String::from_utf8_lossy(&check.stderr);
+    assert!(check.status.success() && !stderr.to_lowercase().contains("warning"), "{stderr}");
     // no stray temporary files
     let stray: Vec<_> =
         std::fs::read_dir(&report).unwrap().filter_map(|e| e.ok()).filter(|e| e.file_name().to_string_lossy().starts_with('.')).collect();

@@ -127,8 +127,12 @@ pub struct Estimate {
     pub shown: Option<f64>,
     /// Linearised, correlation-aware standard error [SI].
     pub std_error: Option<f64>,
-    /// 95 % confidence interval [SI] (symmetric in the fit coordinate).
+    /// 95 % confidence interval [SI] (symmetric in the fit coordinate),
+    /// clipped to the bounds; for a parameter at a bound, one-sided: from
+    /// that bound to the 95 % limit on the other side.
     pub ci95: Option<(f64, f64)>,
+    /// `ci95` in `unit` (when the unit converts), beside `shown`.
+    pub shown_ci95: Option<(f64, f64)>,
     pub lo: f64,
     pub hi: f64,
     pub at_bound: bool,
@@ -141,6 +145,21 @@ fn display(value: f64, unit: &str) -> Option<f64> {
     units::to_unit(value, unit).ok().filter(|v| v.is_finite())
 }
 
+/// The 95 % interval of a parameter at `v` (fit coordinate `u`, standard
+/// error `s` in it), within its bounds. At a bound the estimate is not
+/// normally distributed around its value: the interval runs from the bound
+/// to the one-sided 95 % limit (1.645 s) on the other side.
+fn interval(p: &FitParam, u: f64, s: f64, v: f64, at_bound: bool) -> (f64, f64) {
+    let clip = |x: f64| if x.is_nan() { x } else { x.clamp(p.lo.min(p.hi), p.hi.max(p.lo)) };
+    if at_bound {
+        let (a, b) = (clip(p.from_u(u - 1.645 * s)), clip(p.from_u(u + 1.645 * s)));
+        let at_lo = (v - p.lo).abs() <= (p.hi - v).abs();
+        return if at_lo { (p.lo, a.max(b)) } else { (a.min(b), p.hi) };
+    }
+    let (a, b) = (clip(p.from_u(u - 1.96 * s)), clip(p.from_u(u + 1.96 * s)));
+    (a.min(b), a.max(b))
+}
+
 /// Estimates with intervals of every parameter of a fit.
 pub fn estimates(params: &[FitParam], f: &Fit) -> Vec<Estimate> {
     params
@@ -149,14 +168,14 @@ pub fn estimates(params: &[FitParam], f: &Fit) -> Vec<Estimate> {
         .map(|(i, p)| {
             let su = f.std_u.as_ref().and_then(|s| s.get(i).copied()).filter(|s| s.is_finite());
             let v = f.values[i];
+            let at_bound = f.at_bound.get(i).copied().unwrap_or(false);
             let (se, ci) = match su {
                 Some(s) => {
-                    let (a, b) = (p.from_u(f.u[i] - 1.96 * s), p.from_u(f.u[i] + 1.96 * s));
                     let se = match p.scale {
                         Scale::Linear => s * p.typical,
                         Scale::Log => s * v.abs(),
                     };
-                    (Some(se), Some((a.min(b), a.max(b))))
+                    (Some(se), Some(interval(p, f.u[i], s, v, at_bound)))
                 }
                 None => (None, None),
             };
@@ -167,9 +186,10 @@ pub fn estimates(params: &[FitParam], f: &Fit) -> Vec<Estimate> {
                 shown: display(v, &p.unit),
                 std_error: se,
                 ci95: ci,
+                shown_ci95: ci.and_then(|(a, b)| Some((display(a, &p.unit)?, display(b, &p.unit)?))),
                 lo: p.lo,
                 hi: p.hi,
-                at_bound: f.at_bound.get(i).copied().unwrap_or(false),
+                at_bound,
             }
         })
         .collect()
@@ -623,6 +643,35 @@ mod tests {
     use super::*;
     use crate::effects::EffectParam;
     use crate::params::effect_params;
+
+    #[test]
+    fn an_estimate_at_a_bound_gets_a_one_sided_interval_inside_the_bounds() {
+        // a log-scaled conductance pushed onto its lower bound, with the
+        // standard error a flat direction gives (the interval was
+        // [6e-107, 1.6e104] L/min/bar before)
+        let p = FitParam {
+            name: "piston_seal_leak.C".into(),
+            unit: "L/min/bar".into(),
+            lo: 1e-15,
+            hi: 1e-9,
+            start: 1e-12,
+            typical: 1e-12,
+            scale: Scale::Log,
+            null: Some(0.0),
+            target: crate::params::Target::Effect { slot: 0, k: 0 },
+            prior: None,
+        };
+        let v = 1e-15;
+        let (a, b) = interval(&p, p.to_u(v), 120.0, v, true);
+        assert_eq!((a, b), (1e-15, 1e-9));
+        let (a, b) = interval(&p, p.to_u(v), 0.5, v, true);
+        assert!(a == 1e-15 && b > v && b < 1e-14, "[{a}, {b}]");
+        // away from the bounds: symmetric in the fit coordinate, inside the bounds
+        let (a, b) = interval(&p, p.to_u(1e-12), 0.1, 1e-12, false);
+        assert!((a * b / 1e-24 - 1.0).abs() < 1e-9 && a > 1e-15 && b < 1e-9);
+        let (a, b) = interval(&p, p.to_u(5e-10), 3.0, 5e-10, false);
+        assert!(b == 1e-9 && a > 1e-15, "clipped: [{a}, {b}]");
+    }
 
     #[derive(Debug)]
     struct Shaped;

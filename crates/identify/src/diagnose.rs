@@ -31,7 +31,10 @@ pub struct Trace {
     pub times: Vec<f64>,
     pub signals: Vec<String>,
     pub sigma: Vec<f64>,
+    /// The data, with the fitted sensor errors taken off in the report's
+    /// traces ((measured − offset) / (1 + gain)).
     pub measured: Vec<Vec<Option<f64>>>,
+    /// The model as simulated (no sensor correction on this side).
     pub simulated: Vec<Vec<Option<f64>>>,
     pub phases: Vec<Phase>,
     /// (name, value at each sample).
@@ -70,7 +73,8 @@ pub struct PhaseStats {
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct Whiteness {
     pub lag1: f64,
-    /// Ljung–Box Q / L (≈ 1 for white noise).
+    /// Ljung–Box Q / L (≈ 1 for white noise; NaN when every run is shorter
+    /// than 4 samples).
     pub ljung_box_per_lag: f64,
 }
 
@@ -101,7 +105,7 @@ pub fn diagnose(traces: &[Trace]) -> Diagnosis {
     for name in &names {
         let (mut sq, mut sqn, mut sum, mut n) = (0.0, 0.0, 0.0, 0usize);
         let mut by_phase: BTreeMap<Phase, (f64, f64, usize)> = BTreeMap::new();
-        let (mut lag1_w, mut lb_w, mut wn) = (0.0, 0.0, 0.0);
+        let (mut lag1_w, mut lb_w, mut wn, mut lb_n) = (0.0, 0.0, 0.0, 0.0);
         let mut res_all: Vec<f64> = Vec::new();
         let mut reg_all: BTreeMap<String, Vec<f64>> = BTreeMap::new();
         let mut res_for_reg: BTreeMap<String, Vec<f64>> = BTreeMap::new();
@@ -132,7 +136,11 @@ pub fn diagnose(traces: &[Trace]) -> Diagnosis {
             let w = run.len() as f64;
             if w > 0.0 {
                 lag1_w += w * autocorrelation(&run, 1);
-                lb_w += w * ljung_box_per_lag(&run, LB_LAGS);
+                let lb = ljung_box_per_lag(&run, LB_LAGS);
+                if lb.is_finite() {
+                    lb_w += w * lb;
+                    lb_n += w;
+                }
                 wn += w;
             }
         }
@@ -156,7 +164,8 @@ pub fn diagnose(traces: &[Trace]) -> Diagnosis {
             });
         }
         if wn > 0.0 {
-            d.whiteness.insert(name.clone(), Whiteness { lag1: lag1_w / wn, ljung_box_per_lag: lb_w / wn });
+            d.whiteness
+                .insert(name.clone(), Whiteness { lag1: lag1_w / wn, ljung_box_per_lag: if lb_n > 0.0 { lb_w / lb_n } else { f64::NAN } });
         }
         let mut corr = BTreeMap::new();
         for (rn, rv) in &reg_all {
@@ -207,6 +216,22 @@ mod tests {
         assert!(w.lag1 > 0.8 && w.ljung_box_per_lag > 50.0, "{w:?}");
         assert!(d.correlations["head.p"]["driver"] > 0.9);
         assert!(d.channels["head.p"].rmse_normalized > 2.5);
+    }
+
+    #[test]
+    fn sparse_correlated_residuals_are_not_called_white() {
+        // 15 samples per run (a vessel test logged every few seconds), AR(1) with ρ = 0.8
+        let mut rng = Rng::new(5);
+        let mut z = vec![0.0; 15];
+        for i in 1..z.len() {
+            z[i] = 0.8 * z[i - 1] + 0.6 * rng.normal();
+        }
+        let d = diagnose(&[trace(&z, |_| 0.0, vec![Phase::Hold; z.len()])]);
+        let w = &d.whiteness["head.p"];
+        // Q/L and the lag-1 autocorrelation tell the same story (Q/L was 0 here)
+        assert!(w.lag1 > 0.3 && w.ljung_box_per_lag > 2.0, "{w:?}");
+        let short = diagnose(&[trace(&z[..3], |_| 0.0, vec![Phase::Hold; 3])]);
+        assert!(short.whiteness["head.p"].ljung_box_per_lag.is_nan());
     }
 
     #[test]

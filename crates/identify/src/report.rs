@@ -239,6 +239,7 @@ fn trace_of(
     let sampler = Sampler::new(&result, e, &all)?;
     let (raw, skew) = sampler.best(sensors);
     let mut simulated = Vec::new();
+    let mut corrected = Vec::new();
     let mut est = Vec::new();
     let (mut sum_r2, mut n_r, mut taus) = (0.0, 0usize, Vec::new());
     let skew_z = if sensors.fits_skew() { (skew / sensors.skew).abs() } else { 0.0 };
@@ -282,7 +283,10 @@ fn trace_of(
             symptom: (!symptoms.is_empty())
                 .then(|| format!("{} beyond {SYMPTOM} prior σ: the model, not the sensor, is the likelier cause", symptoms.join(", "))),
         });
-        simulated.push(sim.iter().map(|v| v.map(|y| fit.offset + (1.0 + fit.gain) * y)).collect());
+        // the model as simulated; the sensor's fitted error is taken off
+        // the data: measured → (measured − offset) / (1 + gain)
+        simulated.push(sim.clone());
+        corrected.push(ch.values.iter().map(|v| v.map(|y| (y - fit.offset) / (1.0 + fit.gain))).collect());
     }
     if sensors.fits_skew() && n_r > 0 {
         let tau = taus.iter().sum::<f64>() / taus.len().max(1) as f64;
@@ -313,7 +317,7 @@ fn trace_of(
         times: e.times.clone(),
         signals: e.channels.iter().map(|c| c.signal.clone()).collect(),
         sigma: e.channels.iter().map(|c| c.sigma).collect(),
-        measured: e.channels.iter().map(|c| c.values.clone()).collect(),
+        measured: corrected,
         simulated,
         phases: ph,
         regressors: regressors(&result, e, topo),

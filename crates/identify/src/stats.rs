@@ -66,10 +66,14 @@ pub fn autocorrelation(x: &[f64], lag: usize) -> f64 {
 }
 
 /// Ljung–Box Q over lags 1..=L, divided by L (≈ 1 for white noise; Ljung & Box 1978).
+/// A short series uses fewer lags, L = min(`lags`, n/4) (the autocorrelation
+/// at a lag near n is estimated from a handful of pairs); below 4 samples
+/// there is no statistic (NaN), never a 0 that would read as "white".
 pub fn ljung_box_per_lag(x: &[f64], lags: usize) -> f64 {
     let n = x.len() as f64;
-    if x.len() <= lags + 1 {
-        return 0.0;
+    let lags = lags.min(x.len() / 4);
+    if lags == 0 {
+        return f64::NAN;
     }
     let q: f64 = (1..=lags).map(|k| autocorrelation(x, k).powi(2) / (n - k as f64)).sum::<f64>() * n * (n + 2.0);
     q / lags as f64

@@ -6,7 +6,7 @@
 
 use crate::errors::IntoPy;
 use crate::model::Netlist;
-use pneumo_app::discrepancy::{model_file, netlist_json, run_workflow, text_summary};
+use pneumo_app::discrepancy::{augmented_json, model_file, run_workflow, text_summary};
 use pneumo_app::AppError;
 use pyo3::prelude::*;
 use std::path::PathBuf;
@@ -48,7 +48,7 @@ pub fn discrepancy(py: Python<'_>, netlist: &Netlist, experiments: PathBuf, repo
                 netlist.source.name(),
                 if label == "baseline" { "no missing effect".to_string() } else { format!("added {label}") }
             );
-            models.push((label.clone(), model_file(label), netlist_json(augmented, description)?));
+            models.push((label.clone(), model_file(label), augmented_json(Some(&netlist.source), augmented, description)?));
         }
         Ok(Found { text: text_summary(&found.outcome), summary_json: found.summary_json, models, written: found.written })
     };

@@ -33,6 +33,10 @@ def test_names_the_hidden_leak_and_returns_a_runnable_model(meter_out, manifest,
     assert abs(c / L_MIN_BAR - 0.3) < 0.03, c / L_MIN_BAR
     est = found.estimates
     assert "piston_seal_leak.C" in est.index and est.loc["piston_seal_leak.C", "ci95_low"] < c < est.loc["piston_seal_leak.C", "ci95_high"]
+    # the estimate and its interval side by side in one unit
+    row = est.loc["piston_seal_leak.C"]
+    assert row["unit"] == "L/min/bar" and row["ci95_low_in_unit"] < row["value_in_unit"] < row["ci95_high_in_unit"]
+    assert abs(row["ci95_low_in_unit"] * L_MIN_BAR / row["ci95_low"] - 1.0) < 1e-9
     assert set(found.candidates["effect"]) == {"piston_seal_leak", "valve_delay"}
     assert (found.rmse["after"] < found.rmse["baseline"]).all()
     assert found.summary["verdict"] == found.verdict and "piston_seal_leak" in repr(found)

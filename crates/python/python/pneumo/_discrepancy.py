@@ -24,19 +24,33 @@ def _estimates(params: List[Dict[str, Any]]) -> "pd.DataFrame":
     rows = []
     for e in params:
         ci = e.get("ci95") or (None, None)
+        ci_unit = e.get("shown_ci95") or (None, None)
         rows.append(
             {
                 "name": e["name"],
                 "value": e["value"],
                 "unit": e["unit"],
-                "value_in_unit": e.get("shown"),
                 "std_error": e.get("std_error"),
                 "ci95_low": ci[0],
                 "ci95_high": ci[1],
+                "value_in_unit": e.get("shown"),
+                "ci95_low_in_unit": ci_unit[0],
+                "ci95_high_in_unit": ci_unit[1],
                 "at_bound": bool(e.get("at_bound")),
             }
         )
-    columns = ["name", "value", "unit", "value_in_unit", "std_error", "ci95_low", "ci95_high", "at_bound"]
+    columns = [
+        "name",
+        "value",
+        "unit",
+        "std_error",
+        "ci95_low",
+        "ci95_high",
+        "value_in_unit",
+        "ci95_low_in_unit",
+        "ci95_high_in_unit",
+        "at_bound",
+    ]
     return pd.DataFrame(rows, columns=columns).set_index("name")
 
 
@@ -46,8 +60,11 @@ class DiscrepancyResult:
     - :attr:`verdict` — one sentence; :attr:`effects` — the effects added
       (empty when nothing is missing); :attr:`ambiguous` — the alternatives
       when two effects explain the data equally well;
-    - :attr:`estimates` — the final model's parameter estimates (SI, with
-      95 % intervals), :attr:`baseline_estimates` those of the calibrated
+    - :attr:`estimates` — the final model's parameter estimates: ``value``,
+      ``std_error`` and the 95 % interval ``ci95_low``/``ci95_high`` in SI,
+      and ``value_in_unit``, ``ci95_low_in_unit``/``ci95_high_in_unit`` in
+      the parameter's ``unit`` (at a bound the interval is one-sided, from
+      the bound); :attr:`baseline_estimates` those of the calibrated
       model without any effect;
     - :attr:`candidates` — every effect tried, with ΔIC, held-out error and
       why it was rejected; :attr:`rmse` — normalised RMSE per channel before
