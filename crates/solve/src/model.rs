@@ -253,6 +253,12 @@ impl Model {
         self.n_block_events + mechanics::N_ROOTS * self.circuit.mechanical_nodes.len()
     }
 
+    /// The block whose event function is root `i` (`i < n_block_events`).
+    pub(crate) fn event_owner(&self, i: usize) -> usize {
+        // slots are in block order and their event ranges ascend
+        self.slots.partition_point(|s| s.events.end <= i)
+    }
+
     /// Index of the first root function of mechanical node `node`.
     pub fn node_root_base(&self, node: usize) -> usize {
         self.n_block_events + node * mechanics::N_ROOTS
@@ -263,9 +269,8 @@ impl Model {
     /// "controller event 0" or "piston breakaway (retract)".
     pub fn root_name(&self, i: usize) -> String {
         if i < self.n_block_events {
-            if let Some((bi, slot)) = self.slots.iter().enumerate().find(|(_, s)| s.events.contains(&i)) {
-                return format!("{} event {}", self.circuit.instances[bi].id, i - slot.events.start);
-            }
+            let bi = self.event_owner(i);
+            return format!("{} event {}", self.circuit.instances[bi].id, i - self.slots[bi].events.start);
         }
         let k = i.saturating_sub(self.n_block_events);
         let (node, which) = (k / mechanics::N_ROOTS, k % mechanics::N_ROOTS);

@@ -779,29 +779,33 @@ fn resolve_events(
     due: &[usize],
     result: &mut SimResult,
 ) -> Result<(), SolveError> {
+    // The work per instant is a few evaluations of the model and one look at
+    // each fired root: handling k coincident events never loops over all
+    // roots once per event (which made N drives switching together cost N²).
     let mut fired: Vec<usize> = crossings.to_vec();
+    fired.sort_unstable();
+    fired.dedup();
+    let n_block_events = model.n_block_events;
     let mut g = vec![0.0; model.n_roots()];
+    let mut node_fired = vec![[false; mechanics::N_ROOTS]; model.circuit.mechanical_nodes.len()];
     for round in 0..MAX_ROUNDS {
         model.eval(t, y, None, None)?;
-        let event_ranges: Vec<_> = model.slots.iter().map(|s| s.events.clone()).collect();
-        for (bi, range) in event_ranges.into_iter().enumerate() {
-            for (k, idx) in range.enumerate() {
-                if fired.contains(&idx) {
-                    handle_block_event(model, bi, EventKind::Crossing(k), t, y, result)?;
-                }
-            }
+        // block events in block order (the order of their root indices)
+        for &idx in fired.iter().take_while(|&&i| i < n_block_events) {
+            let bi = model.event_owner(idx);
+            let k = idx - model.slots[bi].events.start;
+            handle_block_event(model, bi, EventKind::Crossing(k), t, y, result)?;
         }
         if round == 0 {
             for &bi in due {
                 handle_block_event(model, bi, EventKind::Time, t, y, result)?;
             }
         }
-        let node_fired: Vec<[bool; mechanics::N_ROOTS]> = (0..model.circuit.mechanical_nodes.len())
-            .map(|node| {
-                let base = model.node_root_base(node);
-                std::array::from_fn(|k| fired.contains(&(base + k)))
-            })
-            .collect();
+        node_fired.iter_mut().for_each(|f| *f = [false; mechanics::N_ROOTS]);
+        for &idx in fired.iter().filter(|&&i| i >= n_block_events) {
+            let k = idx - n_block_events;
+            node_fired[k / mechanics::N_ROOTS][k % mechanics::N_ROOTS] = true;
+        }
         settle(model, t, y, &node_fired, &mut result.events)?;
         model.eval(t, y, None, Some(&mut g))?;
         fired = (0..g.len()).filter(|&i| g[i] > 0.0).collect();
