@@ -21,6 +21,9 @@
 //!   shared sets — the ISO 6358 characteristic ([`crate::iso6358::PARAMS`]),
 //!   the thermal wall ([`crate::chamber::THERMAL_WALL`]) — are declared once
 //!   and joined into a block's list with [`crate::param_set!`].
+//! - **Live parameters** ([`Block::live_parameters`]): the few parameters a
+//!   block lets change during a run (a supply pressure, an external force),
+//!   which a netlist's interface inputs may drive from outside.
 //!
 //! `solve` calls the evaluation phases below, in this order, once per
 //! right-hand-side evaluation:
@@ -538,6 +541,18 @@ pub trait Block: std::fmt::Debug + Send + Sync {
     fn facts(&self) -> Vec<(usize, Fact)> {
         Vec::new()
     }
+    /// Parameters that may change while the circuit runs — a supply
+    /// pressure, an external force — named as in the block's parameter list.
+    /// A netlist's interface may bind an input to one of them
+    /// (`"parameter": "supply.p"`); the value then changes between
+    /// integration steps only (piecewise constant), and the solver restarts
+    /// after each change. Default: none.
+    fn live_parameters(&self) -> &'static [&'static str] {
+        &[]
+    }
+    /// Set live parameter `name` (one of [`Block::live_parameters`]) to
+    /// `value` in SI, already checked against the parameter's range.
+    fn set_live_parameter(&mut self, _name: &str, _value: f64) {}
 }
 
 /// Number of ports of one kind.

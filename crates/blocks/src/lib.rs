@@ -10,6 +10,8 @@
 //! (shared/paper in the repository); "Eq. n" below refers to it.
 
 pub mod block;
+/// The source behind an interface input (created by `graph`, not a netlist type).
+pub mod external_input;
 pub mod iso6358;
 pub mod params;
 pub mod registry;

@@ -8,6 +8,8 @@
 //!   draws gas out).
 //! - `T` [K, 293.15 K]: temperature of the delivered gas.
 //!
+//! `mdot` and `T` are live: an interface input may drive them (piecewise constant).
+//!
 //! # Equations
 //! Delivered gas carries h(p_node, T); drawn gas carries the node's h
 //! (upstream enthalpy, as in Eq. 9/10). The delivered mass is integrated and
@@ -53,6 +55,17 @@ impl Block for MassFlowSource {
     }
     fn quadrature_statistics(&self, increments: &[f64]) -> Vec<(&'static str, Option<f64>)> {
         crate::pressure_source::free_air(increments)
+    }
+    /// A flow an interface input drives.
+    fn live_parameters(&self) -> &'static [&'static str] {
+        &["mdot", "T"]
+    }
+    fn set_live_parameter(&mut self, name: &str, value: f64) {
+        match name {
+            "mdot" => self.mdot = value,
+            "T" => self.t = value,
+            _ => {}
+        }
     }
     fn flows(&self, ctx: &Ctx, out: &mut [PortFlow]) {
         let node = ctx.pneumatic[0];

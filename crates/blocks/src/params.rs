@@ -136,6 +136,11 @@ impl ParamSpec {
     pub const fn count(name: &'static str, default: Option<f64>, doc: &'static str) -> Self {
         Self { name, kind: ParamKind::Count, default, range: Range::NonNegative, display_unit: "", doc }
     }
+    /// Check an SI value against the parameter's range (a value set while the
+    /// circuit runs, e.g. a live parameter driven by an interface input).
+    pub fn check(&self, si: f64) -> Result<(), ParamError> {
+        self.range.check(si).map_err(|reason| ParamError::OutOfRange { name: self.name.into(), value: format!("{si:e}"), reason })
+    }
     /// Free text (one string or a list of strings); `required` makes it mandatory.
     pub const fn words(name: &'static str, required: bool, doc: &'static str) -> Self {
         Self { name, kind: ParamKind::Words, default: if required { None } else { Some(0.0) }, range: Range::Any, display_unit: "", doc }

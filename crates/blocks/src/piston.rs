@@ -11,7 +11,8 @@
 //! - `rod_area` [m², 0] or `rod_diameter` [m, 0]: rod cross-section exposed to
 //!   the atmosphere; the atmosphere pushes it with −p_atm·A_rod.
 //! - `p_atm` [Pa, 101 325 Pa]: ambient pressure on the rod.
-//! - `external_force` [N, 0]: constant load, positive in the extend direction.
+//! - `external_force` [N, 0]: constant load, positive in the extend direction;
+//!   live: an interface input may drive it (piecewise constant).
 //! - `restitution` [-, 0]: coefficient of restitution at the stops
 //!   (0 = inelastic, the paper's assumption).
 //! - initial conditions `x0` [m, 0], `v0` [m/s, 0].
@@ -145,6 +146,15 @@ impl Block for Piston {
     fn signal_outputs(&self, ctx: &Ctx, out: &mut [f64]) {
         out[0] = ctx.states[0];
         out[1] = ctx.states[1];
+    }
+    /// An external force an interface input drives (a process force, a disturbance).
+    fn live_parameters(&self) -> &'static [&'static str] {
+        &["external_force"]
+    }
+    fn set_live_parameter(&mut self, name: &str, value: f64) {
+        if name == "external_force" {
+            self.external_force = value;
+        }
     }
     fn forces(&self, _ctx: &Ctx, out: &mut [PortForce]) {
         out[0] = PortForce { applied: self.external_force - self.p_atm * self.rod_area, friction: None };

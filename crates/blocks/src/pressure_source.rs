@@ -8,6 +8,9 @@
 //! - type `pressure_source`: `p` [Pa, required], `T` [K, 293.15 K].
 //! - type `atmosphere`: `p` [Pa, 101 325 Pa], `T` [K, 293.15 K].
 //!
+//! `p` and `T` are live: an interface input may drive them (piecewise
+//! constant, e.g. a supply pressure changed between communication steps).
+//!
 //! # Equations
 //! The port state is (p, T, ρ(p, T), h(ρ, T)) from the circuit's gas model.
 //! Gas flowing out of the source carries that enthalpy; gas flowing in
@@ -72,6 +75,17 @@ impl Block for PressureSource {
     }
     fn facts(&self) -> Vec<(usize, Fact)> {
         vec![(0, if self.name == "atmosphere" { Fact::AmbientPressure(self.p) } else { Fact::SupplyPressure(self.p) })]
+    }
+    /// A supply whose pressure or temperature an interface input drives.
+    fn live_parameters(&self) -> &'static [&'static str] {
+        &["p", "T"]
+    }
+    fn set_live_parameter(&mut self, name: &str, value: f64) {
+        match name {
+            "p" => self.p = value,
+            "T" => self.t = value,
+            _ => {}
+        }
     }
     /// A supply integrates the mass it delivers (for its air consumption); an atmosphere does not.
     fn quadratures(&self) -> &[OutputSpec] {

@@ -1,10 +1,12 @@
 //! The `pneumo` command line as a library function: argument parsing and
-//! dispatch to the command modules, one-line errors and exit statuses. Used
-//! by the binary (`src/main.rs`) and by the Python package (`python -m
-//! pneumo`), so both are the same program.
+//! dispatch to the subcommands' modules (`src/args/`), one-line errors and
+//! exit statuses. Used by the binary (`src/main.rs`) and by the Python
+//! package (`python -m pneumo`), so both are the same program.
 
-use crate::{check, conductance, discrepancy, load, plot, simulate, sweep};
+use crate::args::{check, conductance, discrepancy, plot, simulate, sweep};
 use clap::{Parser, Subcommand};
+use pneumo_app::error::one_line;
+use pneumo_app::load;
 
 /// Simulate pneumatic circuits written as JSON netlists.
 #[derive(Parser, Debug)]
@@ -56,21 +58,18 @@ where
     };
     load::set_limits(load::Limits { max_components: cli.max_components, max_memory_mib: cli.max_memory });
     let result = match cli.command {
-        Command::Check(a) => check::run(&a),
-        Command::Simulate(a) => simulate::run(&a),
-        Command::Sweep(a) => sweep::run(&a),
-        Command::Merge(a) => sweep::merge(&a),
-        Command::Plot(a) => plot::run(&a),
-        Command::Conductance(a) => conductance::run(&a),
-        Command::Discrepancy(a) => discrepancy::run(&a),
+        Command::Check(a) => check::run(a),
+        Command::Simulate(a) => simulate::run(a),
+        Command::Sweep(a) => sweep::run(a),
+        Command::Merge(a) => sweep::run_merge(a),
+        Command::Plot(a) => plot::run(a),
+        Command::Conductance(a) => conductance::run(a),
+        Command::Discrepancy(a) => discrepancy::run(a),
         Command::Schema => {
             println!("{}", serde_json::to_string_pretty(&graph::netlist::schema()).unwrap_or_default());
             Ok(())
         }
-        Command::Blocks => {
-            print!("{}", check::block_listing());
-            Ok(())
-        }
+        Command::Blocks => check::blocks(),
     };
     match result {
         Ok(()) => 0,
@@ -79,12 +78,6 @@ where
             e.exit_code()
         }
     }
-}
-
-/// A message as one line: control characters (newlines, terminal escapes)
-/// from any input it quotes are shown escaped.
-pub fn one_line(message: &str) -> String {
-    message.chars().map(|c| if c.is_control() { format!("\\u{{{:x}}}", c as u32) } else { c.to_string() }).collect()
 }
 
 /// clap's errors in one line (its first line, with the command to get help);

@@ -1,21 +1,11 @@
-//! The use-case layer of `pneumo`: loading netlists, running, sweeping,
-//! writing outputs, and the command line itself. The `pneumo` binary
-//! (`src/main.rs`) is a thin wrapper around [`command::run`]; the Python
-//! package (`crates/python`) calls the same modules, so a DataFrame from
-//! `pneumo.sweep` and a CSV from `pneumo sweep` come from one code path.
+//! The `pneumo` command line as a library: argument parsing and dispatch
+//! ([`command::run`]), which the binary (`src/main.rs`) and `python -m
+//! pneumo` call. A thin shell over the use-case layer `pneumo_app`: each
+//! subcommand's module (`src/args/`) turns its arguments into the app's
+//! options, calls one use case and prints what it returns.
 //!
-//! The only crate that touches files, terminals and exit codes.
+//! The only crate that parses arguments, prints to the terminal and chooses
+//! exit statuses.
 
-pub mod check;
+mod args;
 pub mod command;
-pub mod conductance;
-pub mod discrepancy;
-pub mod error;
-pub mod load;
-pub mod output;
-pub mod plot;
-pub mod run;
-pub mod simulate;
-pub mod sweep;
-
-pub use error::CliError;

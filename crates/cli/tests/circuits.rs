@@ -446,6 +446,8 @@ fn several_controllers_keep_their_cycles_apart() {
         conns.push(serde_json::json!({ "from": "cycler_b.command", "to": "valve_b.command" }));
         j["simulation"]["outputs"] = serde_json::json!([]);
         j["simulation"]["cycles"] = serde_json::json!(3);
+        // the interface names the sequencer's start button, which is gone
+        j.as_object_mut().expect("a netlist object").remove("interface");
     });
     let r = run_flat(&f);
     let (na, nb) = (r.cycles_of("cycler_a").count(), r.cycles_of("cycler_b").count());

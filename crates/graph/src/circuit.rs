@@ -17,6 +17,7 @@
 //! nothing of the equations inside the blocks.
 
 use crate::expand::FlatNetlist;
+use crate::interface::Drive;
 use crate::netlist::{split_ref, GasModelName, Species};
 use crate::GraphError;
 use blocks::block::{Domain, PortKind};
@@ -85,6 +86,8 @@ pub struct Circuit {
     pub resolved: crate::params::Resolved,
     /// Questionable input found while building, one line each.
     pub warnings: Vec<crate::Warning>,
+    /// The netlist's inputs and outputs, bound to the blocks.
+    pub interface: crate::interface::ModelInterface,
 }
 
 impl Circuit {
@@ -132,10 +135,16 @@ impl UnionFind {
 }
 
 /// Resolve parameters and expressions, then build blocks, wire them, and
-/// assign causality.
+/// assign causality; the netlist runs by itself ([`Drive::Standalone`]).
 pub fn build(flat: &FlatNetlist) -> Result<Circuit, GraphError> {
+    build_with(flat, Drive::Standalone)
+}
+
+/// [`build`], with the interface's inputs acting as `drive` says
+/// ([`Drive::External`]: the model is driven from outside, e.g. as an FMU).
+pub fn build_with(flat: &FlatNetlist, drive: Drive) -> Result<Circuit, GraphError> {
     let (concrete, resolved) = crate::params::concrete(flat)?;
-    let mut circuit = build_concrete(&concrete)?;
+    let mut circuit = build_concrete(&concrete, drive, &resolved)?;
     crate::consistency::errors(&circuit)?;
     circuit.warnings = resolved.warnings.clone();
     circuit.warnings.extend(crate::consistency::check(&circuit));
@@ -144,7 +153,7 @@ pub fn build(flat: &FlatNetlist) -> Result<Circuit, GraphError> {
 }
 
 /// Build from a netlist whose values are all literals.
-fn build_concrete(flat: &FlatNetlist) -> Result<Circuit, GraphError> {
+fn build_concrete(flat: &FlatNetlist, drive: Drive, resolved: &crate::params::Resolved) -> Result<Circuit, GraphError> {
     // 1. ids and blocks
     let mut seen = BTreeMap::new();
     let mut instances = Vec::new();
@@ -177,6 +186,11 @@ fn build_concrete(flat: &FlatNetlist) -> Result<Circuit, GraphError> {
         })?;
         Ok(PortRef { block, port })
     };
+    let ends = flat.connections.iter().map(|(a, b)| Ok((resolve(a)?, resolve(b)?))).collect::<Result<Vec<_>, GraphError>>()?;
+    drop(by_id);
+    // the model interface: a source block for each input bound to ports, the outputs it reports
+    let bound = crate::interface::bind_inputs(flat, &mut instances, &ends, drive, resolved)?;
+    let outputs = crate::interface::bind_outputs(flat, &instances)?;
     let mut offsets = Vec::with_capacity(instances.len());
     let mut total = 0;
     for inst in &instances {
@@ -189,8 +203,7 @@ fn build_concrete(flat: &FlatNetlist) -> Result<Circuit, GraphError> {
     let mut signal_src: BTreeMap<PortRef, PortRef> = BTreeMap::new();
     let mut graph = DiGraph::<String, String>::new();
     let gnodes: Vec<NodeIndex> = instances.iter().map(|i| graph.add_node(format!("{} ({})", i.id, i.block.type_name()))).collect();
-    for (a, b) in &flat.connections {
-        let (ra, rb) = (resolve(a)?, resolve(b)?);
+    for ((a, b), &(ra, rb)) in flat.connections.iter().zip(&ends) {
         if ra == rb {
             return Err(GraphError::SelfConnection { reference: a.clone() });
         }
@@ -198,22 +211,37 @@ fn build_concrete(flat: &FlatNetlist) -> Result<Circuit, GraphError> {
         if ka.domain() != kb.domain() {
             return Err(GraphError::DomainMismatch { a: a.clone(), da: ka.domain(), b: b.clone(), db: kb.domain() });
         }
-        connected[flat_index(ra)] = true;
-        connected[flat_index(rb)] = true;
-        graph.add_edge(gnodes[ra.block], gnodes[rb.block], format!("{} -> {}", a, b));
-        if ka.domain() == Domain::Signal {
+        let signal = if ka.domain() == Domain::Signal {
             let (src, dst) = match (ka, kb) {
                 (PortKind::SignalOut, PortKind::SignalIn) => (ra, rb),
                 (PortKind::SignalIn, PortKind::SignalOut) => (rb, ra),
                 _ => return Err(GraphError::SignalDirection { a: a.clone(), b: b.clone() }),
             };
-            if signal_src.insert(dst, src).is_some() {
-                let name = if dst == ra { a } else { b };
-                return Err(GraphError::SignalDriven { reference: name.clone() });
+            if bound.replaced.contains(&dst) {
+                continue; // an interface input drives this port instead
             }
+            Some((src, dst))
         } else {
-            uf.union(flat_index(ra), flat_index(rb));
+            None
+        };
+        connected[flat_index(ra)] = true;
+        connected[flat_index(rb)] = true;
+        graph.add_edge(gnodes[ra.block], gnodes[rb.block], format!("{} -> {}", a, b));
+        match signal {
+            Some((src, dst)) => {
+                if signal_src.insert(dst, src).is_some() {
+                    let name = if dst == ra { a } else { b };
+                    return Err(GraphError::SignalDriven { reference: name.clone() });
+                }
+            }
+            None => uf.union(flat_index(ra), flat_index(rb)),
         }
+    }
+    for &(src, dst) in &bound.connections {
+        connected[flat_index(dst)] = true;
+        let label = format!("{} -> {}", port_name_of(&instances, src), port_name_of(&instances, dst));
+        graph.add_edge(gnodes[src.block], gnodes[dst.block], label);
+        signal_src.insert(dst, src);
     }
 
     // 3. unconnected ports
@@ -315,7 +343,12 @@ fn build_concrete(flat: &FlatNetlist) -> Result<Circuit, GraphError> {
         graph,
         resolved: Default::default(),
         warnings: Vec::new(),
+        interface: crate::interface::ModelInterface { inputs: bound.inputs, outputs },
     })
+}
+
+fn port_name_of(instances: &[Instance], r: PortRef) -> String {
+    format!("{}.{}", instances[r.block].id, instances[r.block].block.ports()[r.port].name)
 }
 
 /// Group junction nodes coupled through blocks, and check each group borders

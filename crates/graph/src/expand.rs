@@ -62,6 +62,10 @@ pub struct FlatNetlist {
     pub aliases: BTreeMap<String, Vec<String>>,
     /// File of the top-level netlist.
     pub origin: String,
+    /// The top-level netlist's model inputs (an included subsystem's are not kept).
+    pub inputs: BTreeMap<String, crate::netlist::InputDecl>,
+    /// The top-level netlist's model outputs.
+    pub outputs: BTreeMap<String, crate::netlist::OutputDecl>,
 }
 
 impl FlatNetlist {
@@ -268,6 +272,8 @@ fn expand(loader: &dyn Loader, netlist: &Netlist, file: &Path, chain: &mut Vec<P
         parameters,
         aliases,
         origin,
+        inputs: netlist.interface.as_ref().map(|i| i.inputs.clone()).unwrap_or_default(),
+        outputs: netlist.interface.as_ref().map(|i| i.outputs.clone()).unwrap_or_default(),
     })
 }
 

@@ -2,19 +2,22 @@
 //!
 //! Owns: the JSON netlist format ([`netlist`]), subsystem expansion and
 //! overrides ([`expand`]), the wired circuit with causality assigned
-//! ([`circuit`]), and human-readable reports of it ([`report`]).
+//! ([`circuit`]), the model interface — inputs and outputs — bound to it
+//! ([`interface`]), and human-readable reports of it ([`report`]).
 //! Never knows: the equations inside blocks, the integrator, files (reached
 //! through [`expand::Loader`]), terminals.
 
 pub mod circuit;
 pub mod consistency;
 pub mod expand;
+pub mod interface;
 pub mod netlist;
 pub mod params;
 pub mod report;
 
-pub use circuit::{build, Circuit, NodeCausality, PortRef};
+pub use circuit::{build, build_with, Circuit, NodeCausality, PortRef};
 pub use expand::{apply_set, load, FlatNetlist, Loader};
+pub use interface::{Drive, ModelInterface};
 pub use netlist::Netlist;
 pub use params::{resolve, Resolved};
 
@@ -80,6 +83,8 @@ pub enum GraphError {
     Parameter { file: String, subject: String, message: String },
     #[error("{file}: parameters refer to each other in a cycle: {cycle}")]
     ParameterCycle { file: String, cycle: String },
+    #[error("{file}: interface {what} \"{name}\": {message}")]
+    Interface { file: String, what: &'static str, name: String, message: String },
     #[error("component id \"{id}\" is used twice")]
     DuplicateId { id: String },
     #[error("\"{reference}\" is not of the form ID.PORT")]

@@ -1,5 +1,6 @@
 //! The JSON netlist: components, connections, simulation settings, and the
-//! interface a netlist exposes when used as a subsystem.
+//! interface a netlist exposes — ports and parameters when used as a
+//! subsystem, inputs and outputs when driven from outside.
 //!
 //! These serde types are the file format; their JSON Schema is generated from
 //! them (`pneumo schema`, docs/netlist.schema.json). Values of parameters are
@@ -37,7 +38,8 @@ pub struct Netlist {
     /// Simulation settings (ignored in a subsystem).
     #[serde(default)]
     pub simulation: Simulation,
-    /// Ports and parameters exposed when this netlist is used as a subsystem.
+    /// Ports and parameters exposed when this netlist is used as a
+    /// subsystem; inputs and outputs when it is driven from outside.
     #[serde(default)]
     pub interface: Option<Interface>,
 }
@@ -285,16 +287,144 @@ impl Default for Simulation {
     }
 }
 
-/// What a subsystem netlist exposes.
+/// What a netlist exposes: as a subsystem, the ports and parameters an
+/// instance connects and sets; as a model driven from outside (an FMU, a
+/// linearisation), its inputs and outputs. Inputs and outputs are read from
+/// the top-level netlist only; an included subsystem's are ignored.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema, Default)]
 #[serde(deny_unknown_fields)]
 pub struct Interface {
     /// Exposed port name → inner "id.port".
-    #[serde(default)]
+    #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
     pub ports: BTreeMap<String, String>,
     /// Exposed parameter name → the inner "id.param" it sets (one or more).
-    #[serde(default)]
+    #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
     pub params: BTreeMap<String, Vec<String>>,
+    /// Model inputs by name: values set from outside, held between
+    /// communication steps. Each drives signal input ports (a valve command,
+    /// a set point) or a live block parameter (a supply pressure, an
+    /// external force).
+    #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
+    pub inputs: BTreeMap<String, InputDecl>,
+    /// Model outputs by name: recorded values reported to the outside
+    /// (`"x": "piston.x"` or `{"from": "piston.x", "unit": "mm", "description": "..."}`).
+    #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
+    pub outputs: BTreeMap<String, OutputDecl>,
+}
+
+/// One model input: what it drives (`port` or `parameter`, exactly one),
+/// its unit outside, its start value and a description.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct InputDecl {
+    /// Signal input port(s) the input drives: "dcv.command", or a list. When
+    /// the model is driven from outside, the ports read the input instead of
+    /// what the netlist connects to them; when the netlist runs by itself
+    /// (`pneumo simulate`) a connected port keeps its connection and an
+    /// unconnected one reads the start value.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub port: Option<PortList>,
+    /// A live block parameter the input sets: "supply.p",
+    /// "cyl.piston.external_force" (docs/netlist.md lists them). Its start
+    /// value is the parameter's own value.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub parameter: Option<String>,
+    /// Unit of the value outside ("bar", "mm", "1"); SI inside. Default: the
+    /// SI unit of what it drives.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub unit: Option<String>,
+    /// Value until one is set from outside (`port` inputs only; default 0):
+    /// a number (SI), a text with unit ("2 bar") or an expression of the
+    /// netlist's values ("= p_supply - 1 bar").
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub start: Option<Value>,
+    /// What the input means, for the people who connect it.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub description: Option<String>,
+}
+
+/// One port ("dcv.command") or several (["valve_a.command", "valve_b.command"]).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(untagged)]
+pub enum PortList {
+    One(String),
+    Many(Vec<String>),
+}
+
+impl PortList {
+    pub fn ports(&self) -> Vec<&str> {
+        match self {
+            PortList::One(p) => vec![p.as_str()],
+            PortList::Many(v) => v.iter().map(String::as_str).collect(),
+        }
+    }
+}
+
+/// One model output: a recorded value ("id.signal", e.g. "piston.x",
+/// "head.T", "valve.mdot_a") or a running total ("supply.delivered").
+#[derive(Debug, Clone, PartialEq, Serialize, JsonSchema)]
+#[serde(untagged)]
+pub enum OutputDecl {
+    /// `{"from": "piston.x", "unit": "mm", "description": "piston position"}`
+    Full(OutputFull),
+    /// `"piston.x"` (SI unit, no description)
+    Short(String),
+}
+
+/// The long form of an output.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct OutputFull {
+    /// The recorded value: "id.signal" or a running total "id.name".
+    pub from: String,
+    /// Unit of the value outside ("mm", "bar", "degC"); default its SI unit.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub unit: Option<String>,
+    /// What the output means.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub description: Option<String>,
+}
+
+/// A text or an object, with the object's own messages (unknown or missing
+/// keys, at their line and column) rather than "no variant matched".
+impl<'de> Deserialize<'de> for OutputDecl {
+    fn deserialize<D: serde::Deserializer<'de>>(deserializer: D) -> Result<Self, D::Error> {
+        struct Visit;
+        impl<'de> serde::de::Visitor<'de> for Visit {
+            type Value = OutputDecl;
+            fn expecting(&self, f: &mut std::fmt::Formatter) -> std::fmt::Result {
+                f.write_str("\"id.signal\" or {\"from\": \"id.signal\", \"unit\": ..., \"description\": ...}")
+            }
+            fn visit_str<E: serde::de::Error>(self, v: &str) -> Result<OutputDecl, E> {
+                Ok(OutputDecl::Short(v.to_string()))
+            }
+            fn visit_map<A: serde::de::MapAccess<'de>>(self, map: A) -> Result<OutputDecl, A::Error> {
+                OutputFull::deserialize(serde::de::value::MapAccessDeserializer::new(map)).map(OutputDecl::Full)
+            }
+        }
+        deserializer.deserialize_any(Visit)
+    }
+}
+
+impl OutputDecl {
+    pub fn from(&self) -> &str {
+        match self {
+            OutputDecl::Full(full) => &full.from,
+            OutputDecl::Short(from) => from,
+        }
+    }
+    pub fn unit(&self) -> Option<&str> {
+        match self {
+            OutputDecl::Full(full) => full.unit.as_deref(),
+            OutputDecl::Short(_) => None,
+        }
+    }
+    pub fn description(&self) -> Option<&str> {
+        match self {
+            OutputDecl::Full(full) => full.description.as_deref(),
+            OutputDecl::Short(_) => None,
+        }
+    }
 }
 
 /// Split "id.port" at the last dot.
@@ -325,6 +455,15 @@ pub fn schema() -> serde_json::Value {
     if let Some(component) = schema.pointer_mut("/$defs/Component") {
         component["properties"]["type"]["enum"] = json!(types);
         component["allOf"] = json!(per_type);
+    }
+    // an input binds to ports or to a parameter, and names are identifiers (as `graph` checks)
+    if let Some(input) = schema.pointer_mut("/$defs/InputDecl") {
+        input["oneOf"] = json!([{ "required": ["port"] }, { "required": ["parameter"] }]);
+    }
+    if let Some(interface) = schema.pointer_mut("/$defs/Interface/properties") {
+        for key in ["inputs", "outputs"] {
+            interface[key]["propertyNames"] = json!({ "pattern": "^[A-Za-z_][A-Za-z0-9_]*$" });
+        }
     }
     schema
 }

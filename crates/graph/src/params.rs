@@ -374,12 +374,7 @@ fn article(d: Dimension) -> String {
     if d == dim::DIMENSIONLESS {
         "a plain number (write a unit, e.g. \"* 1 bar\")".to_string()
     } else {
-        let n = d.name();
-        if n.starts_with(['a', 'e', 'i', 'o', 'u']) {
-            format!("an {n}")
-        } else {
-            format!("a {n}")
-        }
+        d.with_article()
     }
 }
 

@@ -6,8 +6,8 @@
 
 use crate::errors::IntoPy;
 use crate::model::Netlist;
-use pneumo_cli::discrepancy::{analyse, check_report_dir, model_file, netlist_json, read_experiments, text_summary, write_report};
-use pneumo_cli::CliError;
+use pneumo_app::discrepancy::{model_file, netlist_json, run_workflow, text_summary};
+use pneumo_app::AppError;
 use pyo3::prelude::*;
 use std::path::PathBuf;
 
@@ -37,19 +37,12 @@ pub fn discrepancy(py: Python<'_>, netlist: &Netlist, experiments: PathBuf, repo
     let pool = rayon::ThreadPoolBuilder::new()
         .start_handler(move |_| solve::settings::set_thread_cancel(Some(flag.clone())))
         .build()
-        .map_err(|e| crate::errors::to_py(py, &CliError::Data(format!("cannot start worker threads: {e}"))))?;
-    let work = || -> Result<Found, CliError> {
-        let flat = &netlist.flat;
-        let exps = read_experiments(flat, &experiments)?;
-        let mut inputs: Vec<PathBuf> = netlist.source.files.iter().map(|(p, _)| p.clone()).collect();
-        inputs.extend(exps.files.iter().cloned());
-        if let Some(out) = &report {
-            check_report_dir(out, &inputs)?;
-        }
-        let outcome = analyse(flat, &exps)?;
-        let summary_json = serde_json::to_string_pretty(&outcome.summary).map_err(|e| CliError::Data(e.to_string()))?;
+        .map_err(|e| crate::errors::to_py(py, &AppError::Data(format!("cannot start worker threads: {e}"))))?;
+    let work = || -> Result<Found, AppError> {
+        let files: Vec<PathBuf> = netlist.source.files.iter().map(|(p, _)| p.clone()).collect();
+        let found = run_workflow(&netlist.flat, &files, &netlist.source.path, &experiments, report.as_deref())?;
         let mut models = Vec::new();
-        for (label, augmented) in &outcome.augmented {
+        for (label, augmented) in &found.outcome.augmented {
             let description = format!(
                 "{} with the discrepancy workflow's result: {}.",
                 netlist.source.name(),
@@ -57,11 +50,7 @@ pub fn discrepancy(py: Python<'_>, netlist: &Netlist, experiments: PathBuf, repo
             );
             models.push((label.clone(), model_file(label), netlist_json(augmented, description)?));
         }
-        let written = match &report {
-            Some(out) => write_report(out, &inputs, &netlist.source.path, &experiments, &outcome, &summary_json)?,
-            None => Vec::new(),
-        };
-        Ok(Found { summary_json, text: text_summary(&outcome), models, written })
+        Ok(Found { text: text_summary(&found.outcome), summary_json: found.summary_json, models, written: found.written })
     };
     crate::interrupt::run(py, &cancel, || pool.install(work))?.py_err(py)
 }

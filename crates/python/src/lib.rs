@@ -1,8 +1,8 @@
 //! `pneumo._pneumo`: the native half of the Python package `pneumo`.
 //!
-//! Owns: the conversion between Python values and the use-case layer of the
-//! command line (`pneumo_cli`: loading, `run::prepare`/`execute`, the
-//! summary, `sweep::Plan`, discrepancy), running it with the GIL released and
+//! Owns: the conversion between Python values and the use-case layer
+//! (`pneumo_app`: loading, `run::prepare`/`execute`, the summary,
+//! `sweep::Plan`, discrepancy), running it with the GIL released and
 //! Ctrl-C honoured ([`interrupt`]), and errors as Python exceptions
 //! ([`errors`]). The friendly API (numpy arrays, DataFrames, Dask, plots) is
 //! Python code in `python/pneumo/`.
@@ -27,7 +27,7 @@ fn main(py: Python<'_>, argv: Vec<String>) -> u8 {
 /// The block types with their ports and parameters (`pneumo blocks`).
 #[pyfunction]
 fn blocks() -> String {
-    pneumo_cli::check::block_listing()
+    pneumo_app::check::block_listing()
 }
 
 /// The JSON Schema of the netlist format (`pneumo schema`), as JSON text.
@@ -46,6 +46,6 @@ fn _pneumo(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(blocks, m)?)?;
     m.add_function(wrap_pyfunction!(schema_json, m)?)?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
-    m.add("DEFAULT_MAX_CASES", pneumo_cli::sweep::DEFAULT_MAX_CASES)?;
+    m.add("DEFAULT_MAX_CASES", pneumo_app::sweep::DEFAULT_MAX_CASES)?;
     Ok(())
 }

@@ -6,10 +6,10 @@
 use crate::errors::IntoPy;
 use crate::result::RawResult;
 use graph::FlatNetlist;
-use pneumo_cli::load::Source;
-use pneumo_cli::run::{execute, prepare, RunSpec};
-use pneumo_cli::sweep::Cell;
-use pneumo_cli::CliError;
+use pneumo_app::load::Source;
+use pneumo_app::run::{execute, prepare, RunSpec};
+use pneumo_app::sweep::Cell;
+use pneumo_app::AppError;
 use pyo3::prelude::*;
 use std::path::PathBuf;
 
@@ -35,7 +35,7 @@ pub struct Netlist {
 }
 
 impl Netlist {
-    fn new(base: FlatNetlist, source: Source, sets: Vec<String>, si_numbers: Vec<String>) -> Result<Self, CliError> {
+    fn new(base: FlatNetlist, source: Source, sets: Vec<String>, si_numbers: Vec<String>) -> Result<Self, AppError> {
         let mut flat = base.clone();
         for s in &sets {
             graph::apply_set(&mut flat, s)?;
@@ -155,7 +155,7 @@ impl Netlist {
     /// "parameter", "written", "derived" or "default".
     fn parameters(&self, py: Python<'_>) -> PyResult<Vec<ParameterRow>> {
         let resolved = graph::resolve(&self.flat).map_err(|e| crate::errors::to_py(py, &e.into()))?;
-        let cells = pneumo_cli::sweep::netlist_parameters(&self.flat);
+        let cells = pneumo_app::sweep::netlist_parameters(&self.flat);
         Ok(cells
             .iter()
             .map(|(name, cell)| {
@@ -187,7 +187,7 @@ impl Netlist {
     /// parameters, rest state) and the warnings it gives.
     fn check(&self, py: Python<'_>) -> PyResult<(String, Vec<String>)> {
         let mut warnings = Vec::new();
-        let checked = pneumo_cli::check::check(&self.flat, &mut |w| warnings.extend(self.shown_warnings(w))).py_err(py)?;
+        let checked = pneumo_app::check::check(&self.flat, &mut |w| warnings.extend(self.shown_warnings(w))).py_err(py)?;
         Ok((checked.text, warnings))
     }
 
@@ -202,7 +202,7 @@ impl Netlist {
     fn to_json(&self, py: Python<'_>) -> PyResult<String> {
         let description =
             format!("{} with {}", self.source.name(), if self.sets.is_empty() { "no overrides".into() } else { self.sets.join("; ") });
-        pneumo_cli::discrepancy::netlist_json(&self.flat, description).py_err(py)
+        pneumo_app::discrepancy::netlist_json(&self.flat, description).py_err(py)
     }
 
     /// Simulate (GIL released, Ctrl-C honoured). `cycles`/`t_end` as in
@@ -212,7 +212,7 @@ impl Netlist {
         let cancel = solve::Cancel::new();
         let spec = RunSpec { sets: Vec::new(), cycles, t_end, cancel: Some(cancel.clone()) };
         let flat = self.flat.clone();
-        let outcome = crate::interrupt::run(py, &cancel, move || -> Result<_, CliError> {
+        let outcome = crate::interrupt::run(py, &cancel, move || -> Result<_, AppError> {
             let prepared = prepare(flat, &spec)?;
             let warnings = self.shown_warnings(&prepared.warnings);
             Ok((execute(prepared)?, warnings))

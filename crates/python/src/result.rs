@@ -1,7 +1,7 @@
 //! `RawResult`: one finished run, held in Rust; Python's `pneumo.Result`
 //! turns it into numpy arrays, a DataFrame and a summary dict.
 
-use pneumo_cli::run::Run;
+use pneumo_app::run::Run;
 use pyo3::prelude::*;
 use pyo3::types::PyBytes;
 
@@ -52,7 +52,7 @@ impl RawResult {
 
     /// The summary JSON that `pneumo simulate --summary` writes.
     fn summary_json(&self) -> String {
-        serde_json::to_string_pretty(&pneumo_cli::simulate::summary_of(&self.run)).unwrap_or_default()
+        serde_json::to_string_pretty(&pneumo_app::simulate::summary_of(&self.run)).unwrap_or_default()
     }
 
     /// Why the run did less than asked (cycles not completed), or None.
@@ -87,7 +87,7 @@ impl RawResult {
     #[pyo3(signature = (signals = None, header_units = false))]
     fn csv(&self, py: Python<'_>, signals: Option<Vec<String>>, header_units: bool) -> PyResult<String> {
         use crate::errors::IntoPy;
-        let columns = pneumo_cli::output::select_columns(&self.run.result, &signals.unwrap_or_default()).py_err(py)?;
-        Ok(pneumo_cli::output::csv(&self.run.result, &columns, header_units))
+        let columns = pneumo_app::output::select_columns(&self.run.result, &signals.unwrap_or_default()).py_err(py)?;
+        Ok(pneumo_app::output::csv(&self.run.result, &columns, header_units))
     }
 }

@@ -1,4 +1,4 @@
-//! `SweepPlan`: a `pneumo_cli::sweep::Plan` for Python. Runs its cases on
+//! `SweepPlan`: a `pneumo_app::sweep::Plan` for Python. Runs its cases on
 //! local threads (`run`, Ctrl-C honoured) or one at a time (`run_case`, for
 //! Dask workers), and turns outcomes into the sweep table: columns for a
 //! DataFrame, or the exact CSV/JSON bytes of `pneumo sweep --out`.
@@ -10,7 +10,7 @@
 
 use crate::errors::IntoPy;
 use crate::model::Netlist;
-use pneumo_cli::sweep::{Cell, Outcome, Plan, Study, Table};
+use pneumo_app::sweep::{Cell, Outcome, Plan, Study, Table};
 use pyo3::prelude::*;
 use pyo3::types::PyBytes;
 
@@ -67,7 +67,7 @@ impl SweepPlan {
     /// Check a study of `netlist` (its overrides are the fixed `--set`s):
     /// `axes` is `[(ID.PARAM, [value, ...]), ...]`, slowest first.
     #[new]
-    #[pyo3(signature = (netlist, axes, cycles = None, t_end = None, shard = None, max_cases = pneumo_cli::sweep::DEFAULT_MAX_CASES))]
+    #[pyo3(signature = (netlist, axes, cycles = None, t_end = None, shard = None, max_cases = pneumo_app::sweep::DEFAULT_MAX_CASES))]
     fn new(
         py: Python<'_>,
         netlist: &Netlist,
@@ -133,13 +133,13 @@ impl SweepPlan {
 
     /// The bytes `pneumo sweep --out FILE.csv` writes for these outcomes.
     fn csv<'py>(&self, py: Python<'py>, outcomes: Vec<PyOutcome>) -> PyResult<Bound<'py, PyBytes>> {
-        let bytes = pneumo_cli::sweep::to_csv(&self.table(outcomes)).py_err(py)?;
+        let bytes = pneumo_app::sweep::to_csv(&self.table(outcomes)).py_err(py)?;
         Ok(PyBytes::new(py, &bytes))
     }
 
     /// The bytes `pneumo sweep --out FILE.json` writes for these outcomes.
     fn json<'py>(&self, py: Python<'py>, outcomes: Vec<PyOutcome>) -> Bound<'py, PyBytes> {
-        PyBytes::new(py, &pneumo_cli::sweep::to_json(&self.table(outcomes)))
+        PyBytes::new(py, &pneumo_app::sweep::to_json(&self.table(outcomes)))
     }
 
     /// The table `pneumo sweep` prints: values as written, cycle time, status.

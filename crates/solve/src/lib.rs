@@ -3,11 +3,13 @@
 //! Owns: the resource estimate of a run ([`budget`]), the flat state vector and right-hand side ([`model`]), algebraic
 //! junctions ([`junction`]), the Jacobian from the circuit's structure ([`jacobian`]), stick–slip and end-stop modes of mechanical
 //! nodes ([`mechanics`]), the rest state before t = 0 ([`rest`]), the event loop and result sampling ([`simulate`]),
-//! and the reading of simulation settings ([`settings`]).
+//! the reading of simulation settings ([`settings`]), and the values of the netlist's interface inputs and outputs
+//! ([`interface`]).
 //! Never knows: concrete block types (blocks are reached through the
 //! `Block` trait only), files, terminals.
 
 pub mod budget;
+pub mod interface;
 pub mod jacobian;
 pub mod junction;
 pub mod mechanics;
@@ -16,6 +18,7 @@ pub mod rest;
 pub mod settings;
 pub mod simulate;
 
+pub use interface::InputError;
 pub use model::{Model, ModelError};
 pub use rest::{RestError, RestReport, RestValue};
 pub use settings::options_from;

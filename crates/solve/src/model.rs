@@ -95,6 +95,8 @@ pub struct Model {
     pub(crate) at_rest: bool,
     /// Derivative and warm-start buffers reused by [`Model::record`].
     record_scratch: (Vec<f64>, WarmStart),
+    /// Current value of each interface input [SI] (see [`crate::interface`]).
+    pub(crate) input_values: Vec<f64>,
 }
 
 /// Saved junction warm starts (see [`Model::save_warm_start_into`]).
@@ -229,6 +231,7 @@ impl Model {
             evaluations: 0,
             at_rest: false,
             record_scratch: Default::default(),
+            input_values: circuit.interface.inputs.iter().map(|i| i.start).collect(),
             circuit,
         }
     }

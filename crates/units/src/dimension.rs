@@ -135,7 +135,7 @@ impl Dimension {
 
     /// Name with an indefinite article, for messages: "a pressure", "an area",
     /// "a quantity of dimension kg m^-3 s".
-    pub(crate) fn with_article(&self) -> String {
+    pub fn with_article(&self) -> String {
         let name = self.name();
         if *self == dim::DIMENSIONLESS {
             "a dimensionless number".to_string()

@@ -4,7 +4,7 @@
 //! memory, so that it can be loaded again without the file system (on a Dask
 //! worker) and named in results by its path and content hash.
 
-use crate::error::CliError;
+use crate::error::AppError;
 use graph::{FlatNetlist, Loader};
 use std::cell::RefCell;
 use std::collections::BTreeMap;
@@ -77,7 +77,7 @@ pub fn read_text(path: &Path, limit: u64, what: &str) -> Result<String, String> 
 
 /// Load a netlist, expand subsystems, apply `--set` overrides; also return
 /// every file read.
-pub fn netlist_with_files(path: &Path, sets: &[String]) -> Result<(FlatNetlist, Vec<PathBuf>), CliError> {
+pub fn netlist_with_files(path: &Path, sets: &[String]) -> Result<(FlatNetlist, Vec<PathBuf>), AppError> {
     let loader = FsLoader::default();
     let mut flat = graph::load(&loader, path)?;
     for s in sets {
@@ -123,22 +123,22 @@ impl Loader for SourceLoader {
 
 impl Source {
     /// Load the netlist at `path` (and its subsystems) from the file system.
-    pub fn read(path: &Path) -> Result<(FlatNetlist, Source), CliError> {
+    pub fn read(path: &Path) -> Result<(FlatNetlist, Source), AppError> {
         Self::load_with(path, BTreeMap::new(), true)
     }
 
     /// Load a netlist given as text, named `path` in messages; subsystem
     /// files it names are read relative to `path`'s folder.
-    pub fn from_text(text: &str, path: &Path) -> Result<(FlatNetlist, Source), CliError> {
+    pub fn from_text(text: &str, path: &Path) -> Result<(FlatNetlist, Source), AppError> {
         Self::load_with(path, BTreeMap::from([(path.to_path_buf(), text.to_string())]), true)
     }
 
     /// Load the model again from the texts held (no file is read).
-    pub fn load(&self) -> Result<FlatNetlist, CliError> {
+    pub fn load(&self) -> Result<FlatNetlist, AppError> {
         Ok(Self::load_with(&self.path, self.files.iter().cloned().collect(), false)?.0)
     }
 
-    fn load_with(path: &Path, preset: BTreeMap<PathBuf, String>, file_system: bool) -> Result<(FlatNetlist, Source), CliError> {
+    fn load_with(path: &Path, preset: BTreeMap<PathBuf, String>, file_system: bool) -> Result<(FlatNetlist, Source), AppError> {
         let loader = SourceLoader { preset, file_system, served: RefCell::new(Vec::new()) };
         let flat = graph::load(&loader, path)?;
         Ok((flat, Source { path: path.to_path_buf(), files: loader.served.into_inner() }))

@@ -1,5 +1,6 @@
-//! `pneumo sweep` and `pneumo merge`: full-factorial parameter studies run in
-//! parallel, split into shards for clusters, and joined back together.
+//! Sweeps (`pneumo sweep`, `pneumo merge`, Python's `pneumo.sweep`):
+//! full-factorial parameter studies run in parallel, split into shards for
+//! clusters, and joined back together.
 //!
 //! No physics here: every case is one ordinary run (`crate::run::prepare`
 //! and `execute`, the same path as `pneumo simulate`) of the netlist with the fixed `--set`
@@ -44,7 +45,7 @@
 //! Assumption: the circuit's structure (and so its temperature and parameter
 //! columns) does not depend on the varied values.
 
-use crate::error::CliError;
+use crate::error::AppError;
 use crate::load::Source;
 use crate::run::{execute, prepare, RunSpec};
 use blocks::params::{ParamKind, Range};
@@ -53,47 +54,55 @@ use rayon::prelude::*;
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
-#[derive(clap::Args, Debug)]
-pub struct SweepArgs {
+/// A sweep as `pneumo sweep` takes it: the netlist file, the axes as
+/// written (`ID.PARAM=V1,V2,...`), and where to write the table.
+#[derive(Debug, Clone)]
+pub struct SweepOptions {
     /// Netlist file (JSON).
     pub model: PathBuf,
-    /// A parameter and its values: ID.PARAM=V1,V2,... (e.g. "supply.p=4 bar,7 bar").
-    /// Repeat for a full factorial; the last --vary changes fastest.
-    #[arg(long = "vary", value_name = "ID.PARAM=V1,V2,...", required = true)]
+    /// Parameters and their values, `ID.PARAM=V1,V2,...` (e.g. "supply.p=4 bar,7 bar"),
+    /// a full factorial with the last one changing fastest.
     pub vary: Vec<String>,
-    /// Override a parameter in every case: ID.PARAM=VALUE.
-    #[arg(long = "set", value_name = "ID.PARAM=VALUE")]
+    /// Overrides `ID.PARAM=VALUE` applied in every case.
     pub sets: Vec<String>,
     /// Number of actuator cycles per case.
-    #[arg(long)]
     pub cycles: Option<u64>,
     /// End time of each case [s].
-    #[arg(long = "t-end", value_name = "SECONDS")]
     pub t_end: Option<f64>,
-    /// Worker threads (default: the available parallelism).
-    #[arg(long, value_name = "N")]
+    /// Worker threads (None: the available parallelism).
     pub jobs: Option<usize>,
-    /// Run only shard K of N (1-based K): the cases whose index mod N is K-1.
-    #[arg(long, value_name = "K/N")]
+    /// Run only shard "K/N" (1-based K): the cases whose index mod N is K-1.
     pub shard: Option<String>,
     /// Write one row per case (CSV, or JSON if the name ends in .json).
-    #[arg(long, value_name = "FILE.csv|FILE.json")]
     pub out: Option<PathBuf>,
-    /// Most cases this process runs (the whole sweep, or its shard); raise it, or split the sweep with --shard.
-    #[arg(long = "max-cases", value_name = "N", default_value_t = DEFAULT_MAX_CASES)]
+    /// Most cases this process runs (the whole sweep, or its shard).
     pub max_cases: usize,
 }
 
-#[derive(clap::Args, Debug)]
-pub struct MergeArgs {
-    /// Shard outputs to join (CSV or JSON, as written by `pneumo sweep`).
-    #[arg(required = true)]
+impl Default for SweepOptions {
+    fn default() -> Self {
+        SweepOptions {
+            model: PathBuf::new(),
+            vary: Vec::new(),
+            sets: Vec::new(),
+            cycles: None,
+            t_end: None,
+            jobs: None,
+            shard: None,
+            out: None,
+            max_cases: DEFAULT_MAX_CASES,
+        }
+    }
+}
+
+/// Sweep tables to join (`pneumo merge`).
+#[derive(Debug, Clone)]
+pub struct MergeOptions {
+    /// Shard outputs (CSV or JSON, as written by `pneumo sweep`).
     pub inputs: Vec<PathBuf>,
     /// Merged file (CSV, or JSON if the name ends in .json).
-    #[arg(long, value_name = "FILE.csv|FILE.json")]
     pub out: PathBuf,
     /// Most cases the merged sweep may hold.
-    #[arg(long = "max-cases", value_name = "N", default_value_t = DEFAULT_MAX_CASES)]
     pub max_cases: usize,
 }
 
@@ -198,8 +207,8 @@ pub struct Plan {
 }
 
 /// Check one axis as `--vary` gives it: an `ID.PARAM` target and non-empty values.
-fn check_axis(shown: &str, target: &str, texts: &[String]) -> Result<(), CliError> {
-    let bad = |why: &str| CliError::Usage(format!("--vary \"{shown}\": {why}"));
+fn check_axis(shown: &str, target: &str, texts: &[String]) -> Result<(), AppError> {
+    let bad = |why: &str| AppError::Usage(format!("--vary \"{shown}\": {why}"));
     if graph::netlist::split_ref(target).is_none() {
         return Err(bad("expected ID.PARAM=V1,V2,... (the target needs an id and a parameter, e.g. supply.p)"));
     }
@@ -210,8 +219,8 @@ fn check_axis(shown: &str, target: &str, texts: &[String]) -> Result<(), CliErro
 }
 
 /// Split "ID.PARAM=V1, V2, ..." into the target and the trimmed values.
-fn parse_vary(s: &str) -> Result<(String, Vec<String>), CliError> {
-    let (target, list) = s.split_once('=').ok_or_else(|| CliError::Usage(format!("--vary \"{s}\": expected ID.PARAM=V1,V2,...")))?;
+fn parse_vary(s: &str) -> Result<(String, Vec<String>), AppError> {
+    let (target, list) = s.split_once('=').ok_or_else(|| AppError::Usage(format!("--vary \"{s}\": expected ID.PARAM=V1,V2,...")))?;
     let target = target.trim();
     let texts: Vec<String> = list.split(',').map(|v| v.trim().to_string()).collect();
     check_axis(s, target, &texts)?;
@@ -219,8 +228,8 @@ fn parse_vary(s: &str) -> Result<(String, Vec<String>), CliError> {
 }
 
 /// Parse "K/N" with 1 ≤ K ≤ N into (K, N).
-pub fn parse_shard(s: &str) -> Result<(usize, usize), CliError> {
-    let bad = || CliError::Usage(format!("--shard \"{s}\": expected K/N with 1 <= K <= N (e.g. 3/16)"));
+pub fn parse_shard(s: &str) -> Result<(usize, usize), AppError> {
+    let bad = || AppError::Usage(format!("--shard \"{s}\": expected K/N with 1 <= K <= N (e.g. 3/16)"));
     let (k, n) = s.split_once('/').ok_or_else(bad)?;
     let k: usize = k.trim().parse().map_err(|_| bad())?;
     let n: usize = n.trim().parse().map_err(|_| bad())?;
@@ -406,7 +415,7 @@ fn is_cycle_column(name: &str) -> bool {
 }
 
 /// A message as one line (whitespace runs, newlines included, become one space).
-fn one_line(e: &CliError) -> String {
+fn one_line(e: &AppError) -> String {
     e.to_string().split_whitespace().collect::<Vec<_>>().join(" ")
 }
 
@@ -414,28 +423,28 @@ impl Plan {
     /// Check the study against the netlist `base` (read from `source`):
     /// every `--vary` target and value, `--set`, the shard and the number of
     /// cases. Nothing is simulated.
-    pub fn new(base: FlatNetlist, source: &Source, study: &Study) -> Result<Plan, CliError> {
+    pub fn new(base: FlatNetlist, source: &Source, study: &Study) -> Result<Plan, AppError> {
         let mut axes: Vec<Axis> = Vec::with_capacity(study.axes.len());
         for (target, texts) in &study.axes {
             let target = target.trim();
             let texts: Vec<String> = texts.iter().map(|t| t.trim().to_string()).collect();
             check_axis(&format!("{target}={}", texts.join(",")), target, &texts)?;
             if axes.iter().any(|x| x.target == target) {
-                return Err(CliError::Usage(format!("--vary {target} is given twice (put all its values in one list)")));
+                return Err(AppError::Usage(format!("--vary {target} is given twice (put all its values in one list)")));
             }
             axes.push(Axis { target: target.to_string(), texts, values: Vec::new() });
         }
         if axes.is_empty() {
-            return Err(CliError::Usage("nothing to vary (give at least one --vary ID.PARAM=V1,V2,...)".into()));
+            return Err(AppError::Usage("nothing to vary (give at least one --vary ID.PARAM=V1,V2,...)".into()));
         }
         if let Some((k, n)) = study.shard {
             if k == 0 || n == 0 || k > n {
-                return Err(CliError::Usage(format!("--shard \"{k}/{n}\": expected K/N with 1 <= K <= N (e.g. 3/16)")));
+                return Err(AppError::Usage(format!("--shard \"{k}/{n}\": expected K/N with 1 <= K <= N (e.g. 3/16)")));
             }
         }
         if let Some(t) = study.t_end {
             if !(t > 0.0 && t.is_finite()) {
-                return Err(CliError::Usage(format!("--t-end must be > 0 s, got {t}")));
+                return Err(AppError::Usage(format!("--t-end must be > 0 s, got {t}")));
             }
         }
         // --set errors stop the sweep before any case runs
@@ -444,9 +453,9 @@ impl Plan {
             graph::apply_set(&mut with_sets, s)?;
         }
         for axis in &mut axes {
-            let target = resolve(&with_sets, &axis.target).map_err(|why| CliError::Usage(format!("--vary {}: {why}", axis.target)))?;
+            let target = resolve(&with_sets, &axis.target).map_err(|why| AppError::Usage(format!("--vary {}: {why}", axis.target)))?;
             for text in &axis.texts {
-                let value = si_value(&target, text).map_err(|why| CliError::Usage(format!("--vary {}={text}: {why}", axis.target)))?;
+                let value = si_value(&target, text).map_err(|why| AppError::Usage(format!("--vary {}={text}: {why}", axis.target)))?;
                 axis.values.push(value);
             }
         }
@@ -454,13 +463,13 @@ impl Plan {
             .iter()
             .try_fold(1usize, |n, x| n.checked_mul(x.texts.len()))
             .filter(|&n| n as u64 <= MAX_INDEX)
-            .ok_or_else(|| CliError::Usage(format!("the sweep has more than {MAX_INDEX} cases")))?;
+            .ok_or_else(|| AppError::Usage(format!("the sweep has more than {MAX_INDEX} cases")))?;
         let mine = match study.shard {
             Some((k, n)) => total / n + usize::from(k - 1 < total % n),
             None => total,
         };
         if mine > study.max_cases {
-            return Err(CliError::Usage(format!(
+            return Err(AppError::Usage(format!(
                 "this sweep would run {mine} cases, more than --max-cases {} (raise it, or split the sweep with --shard K/N)",
                 study.max_cases
             )));
@@ -550,7 +559,7 @@ impl Plan {
     pub fn run_case(&self, index: usize, cancel: Option<&solve::Cancel>) -> Outcome {
         let mut params = vec![Cell::Empty; self.params.len()];
         let no_temps = vec![(None, None); self.temps.len()];
-        let failed = |e: CliError, params: Vec<Cell>| Outcome {
+        let failed = |e: AppError, params: Vec<Cell>| Outcome {
             index,
             cycles: Vec::new(),
             temps: no_temps.clone(),
@@ -558,7 +567,7 @@ impl Plan {
             error: Some(one_line(&e)),
         };
         if index >= self.total {
-            return failed(CliError::Usage(format!("case {index} is out of range (n_cases = {})", self.total)), params);
+            return failed(AppError::Usage(format!("case {index} is out of range (n_cases = {})", self.total)), params);
         }
         let mut flat = self.base.clone();
         for s in self.case_assignments(index) {
@@ -614,14 +623,14 @@ impl Plan {
         jobs: usize,
         cancel: Option<&solve::Cancel>,
         tick: &(dyn Fn() + Sync),
-    ) -> Result<Vec<Outcome>, CliError> {
+    ) -> Result<Vec<Outcome>, AppError> {
         if jobs == 0 {
-            return Err(CliError::Usage("--jobs must be at least 1".into()));
+            return Err(AppError::Usage("--jobs must be at least 1".into()));
         }
         let pool = rayon::ThreadPoolBuilder::new()
             .num_threads(jobs)
             .build()
-            .map_err(|e| CliError::Data(format!("cannot start {jobs} worker threads: {e}")))?;
+            .map_err(|e| AppError::Data(format!("cannot start {jobs} worker threads: {e}")))?;
         Ok(pool.install(|| {
             indices
                 .par_iter()
@@ -714,64 +723,87 @@ impl Plan {
     }
 }
 
-pub fn run(a: &SweepArgs) -> Result<(), CliError> {
-    let mut axes = Vec::with_capacity(a.vary.len());
-    for v in &a.vary {
-        let (target, texts) = parse_vary(v)?;
-        if axes.iter().any(|(t, _): &(String, Vec<String>)| *t == target) {
-            return Err(CliError::Usage(format!("--vary {target} is given twice (put all its values in one list)")));
-        }
-        axes.push((target, texts));
-    }
-    let shard = a.shard.as_deref().map(parse_shard).transpose()?;
-    let jobs = match a.jobs {
-        Some(0) => return Err(CliError::Usage("--jobs must be at least 1".into())),
-        Some(n) => n,
-        None => std::thread::available_parallelism().map(|n| n.get()).unwrap_or(1),
-    };
-    if let Some(t) = a.t_end {
-        if !(t > 0.0 && t.is_finite()) {
-            return Err(CliError::Usage(format!("--t-end must be > 0 s, got {t}")));
-        }
-    }
-    // The file is read once.
-    let (base, source) = Source::read(&a.model)?;
-    let inputs: Vec<&std::path::Path> = source.files.iter().map(|(p, _)| p.as_path()).collect();
-    let mut outputs = crate::output::Transaction::new(&inputs);
-    if let Some(out) = &a.out {
-        outputs.check_targets(&[out])?;
-    }
-    let study = Study { axes, sets: a.sets.clone(), cycles: a.cycles, t_end: a.t_end, shard, max_cases: a.max_cases };
-    let plan = Plan::new(base, &source, &study)?;
-    let bar = progress_bar(plan.selected().len());
-    let outcomes = plan.run_cases(plan.selected(), jobs, None, &|| bar.inc(1))?;
-    bar.finish_and_clear();
-    let table = plan.table(&outcomes);
-    if let Some(path) = &a.out {
-        let bytes = if is_json(path) { to_json(&table) } else { to_csv(&table)? };
-        outputs.add(path, &bytes)?;
-        outputs.commit()?;
-    }
-    print!("{}", plan.summary_table(&outcomes));
-    let failed = outcomes.iter().filter(|o| o.error.is_some()).count();
-    let of = match shard {
-        Some((k, n)) => format!(" (shard {k}/{n} of {})", plan.n_cases()),
-        None => String::new(),
-    };
-    println!("{} cases{of}, {} ok, {failed} failed", outcomes.len(), outcomes.len() - failed);
-    Ok(())
+/// A sweep ready to run (`pneumo sweep`): its options checked, the netlist
+/// read once, the output target checked against the inputs.
+pub struct Sweep {
+    plan: Plan,
+    jobs: usize,
+    shard: Option<(usize, usize)>,
+    out: Option<PathBuf>,
+    outputs: crate::output::Transaction,
 }
 
-fn progress_bar(n: usize) -> indicatif::ProgressBar {
-    use std::io::IsTerminal;
-    if !std::io::stderr().is_terminal() {
-        return indicatif::ProgressBar::hidden();
+/// A finished sweep: the outcomes of its cases (its table was written).
+pub struct SweepDone {
+    pub plan: Plan,
+    pub outcomes: Vec<Outcome>,
+    pub shard: Option<(usize, usize)>,
+}
+
+impl Sweep {
+    /// Check the options of `o`, read its netlist and build the [`Plan`].
+    pub fn new(o: &SweepOptions) -> Result<Sweep, AppError> {
+        let mut axes = Vec::with_capacity(o.vary.len());
+        for v in &o.vary {
+            let (target, texts) = parse_vary(v)?;
+            if axes.iter().any(|(t, _): &(String, Vec<String>)| *t == target) {
+                return Err(AppError::Usage(format!("--vary {target} is given twice (put all its values in one list)")));
+            }
+            axes.push((target, texts));
+        }
+        let shard = o.shard.as_deref().map(parse_shard).transpose()?;
+        let jobs = match o.jobs {
+            Some(0) => return Err(AppError::Usage("--jobs must be at least 1".into())),
+            Some(n) => n,
+            None => std::thread::available_parallelism().map(|n| n.get()).unwrap_or(1),
+        };
+        if let Some(t) = o.t_end {
+            if !(t > 0.0 && t.is_finite()) {
+                return Err(AppError::Usage(format!("--t-end must be > 0 s, got {t}")));
+            }
+        }
+        // The file is read once.
+        let (base, source) = Source::read(&o.model)?;
+        let inputs: Vec<&std::path::Path> = source.files.iter().map(|(p, _)| p.as_path()).collect();
+        let outputs = crate::output::Transaction::new(&inputs);
+        if let Some(out) = &o.out {
+            outputs.check_targets(&[out])?;
+        }
+        let study = Study { axes, sets: o.sets.clone(), cycles: o.cycles, t_end: o.t_end, shard, max_cases: o.max_cases };
+        let plan = Plan::new(base, &source, &study)?;
+        Ok(Sweep { plan, jobs, shard, out: o.out.clone(), outputs })
     }
-    let bar = indicatif::ProgressBar::new(n as u64);
-    if let Ok(style) = indicatif::ProgressStyle::with_template("{bar:30} {pos}/{len} cases  {elapsed} elapsed, ETA {eta}") {
-        bar.set_style(style);
+
+    /// The plan: its cases, the ones this process runs, its columns.
+    pub fn plan(&self) -> &Plan {
+        &self.plan
     }
-    bar
+
+    /// Run the selected cases (`tick` is called after each) and write the table.
+    pub fn run(mut self, tick: &(dyn Fn() + Sync)) -> Result<SweepDone, AppError> {
+        let outcomes = self.plan.run_cases(self.plan.selected(), self.jobs, None, tick)?;
+        let table = self.plan.table(&outcomes);
+        if let Some(path) = &self.out {
+            let bytes = if is_json(path) { to_json(&table) } else { to_csv(&table)? };
+            self.outputs.add(path, &bytes)?;
+            self.outputs.commit()?;
+        }
+        Ok(SweepDone { plan: self.plan, outcomes, shard: self.shard })
+    }
+}
+
+impl SweepDone {
+    /// What `pneumo sweep` prints: the table of cases and the count of failures.
+    pub fn text(&self) -> String {
+        let mut text = self.plan.summary_table(&self.outcomes);
+        let failed = self.outcomes.iter().filter(|o| o.error.is_some()).count();
+        let of = match self.shard {
+            Some((k, n)) => format!(" (shard {k}/{n} of {})", self.plan.n_cases()),
+            None => String::new(),
+        };
+        text.push_str(&format!("{} cases{of}, {} ok, {failed} failed\n", self.outcomes.len(), self.outcomes.len() - failed));
+        text
+    }
 }
 
 /// Whether an output path asks for JSON (by its extension).
@@ -790,8 +822,8 @@ pub fn fmt_num(x: f64) -> String {
 }
 
 /// The table as CSV (the bytes `pneumo sweep --out f.csv` writes).
-pub fn to_csv(t: &Table) -> Result<Vec<u8>, CliError> {
-    let err = |e: csv::Error| CliError::Data(format!("cannot format CSV: {e}"));
+pub fn to_csv(t: &Table) -> Result<Vec<u8>, AppError> {
+    let err = |e: csv::Error| AppError::Data(format!("cannot format CSV: {e}"));
     let mut w = csv::WriterBuilder::new().from_writer(Vec::new());
     w.write_record(&t.header).map_err(err)?;
     for row in &t.rows {
@@ -802,7 +834,7 @@ pub fn to_csv(t: &Table) -> Result<Vec<u8>, CliError> {
         }))
         .map_err(err)?;
     }
-    w.into_inner().map_err(|e| CliError::Data(format!("cannot format CSV: {e}")))
+    w.into_inner().map_err(|e| AppError::Data(format!("cannot format CSV: {e}")))
 }
 
 /// `{"columns": [...], "cases": [{...}, ...]}`, one case per line, keys in column order.
@@ -848,19 +880,19 @@ fn cell_from_text(column: &str, text: &str) -> Cell {
     }
 }
 
-fn read_csv(path: &Path, text: &str) -> Result<Table, CliError> {
+fn read_csv(path: &Path, text: &str) -> Result<Table, AppError> {
     let mut r = csv::ReaderBuilder::new().has_headers(true).from_reader(text.as_bytes());
-    let header: Vec<String> = r.headers().map_err(|e| CliError::io(path, e))?.iter().map(str::to_string).collect();
+    let header: Vec<String> = r.headers().map_err(|e| AppError::io(path, e))?.iter().map(str::to_string).collect();
     let mut rows = Vec::new();
     for rec in r.records() {
-        let rec = rec.map_err(|e| CliError::io(path, e))?;
+        let rec = rec.map_err(|e| AppError::io(path, e))?;
         rows.push(header.iter().zip(rec.iter()).map(|(h, v)| cell_from_text(h, v)).collect());
     }
     Ok(Table { header, rows })
 }
 
-fn read_json(path: &Path, text: &str) -> Result<Table, CliError> {
-    let bad = |why: String| CliError::io(path, why);
+fn read_json(path: &Path, text: &str) -> Result<Table, AppError> {
+    let bad = |why: String| AppError::io(path, why);
     let doc = json::parse(text).map_err(bad)?;
     let json::Value::Object(top) = doc else { return Err(bad("expected a JSON object {\"cases\": [...]}".into())) };
     let field = |name: &str| top.iter().find(|(k, _)| k == name).map(|(_, v)| v);
@@ -901,39 +933,40 @@ fn read_json(path: &Path, text: &str) -> Result<Table, CliError> {
     Ok(Table { header, rows })
 }
 
-pub fn merge(a: &MergeArgs) -> Result<(), CliError> {
-    let inputs: Vec<&std::path::Path> = a.inputs.iter().map(|p| p.as_path()).collect();
+/// Join sweep shards into one table and write it (`pneumo merge`);
+/// returns the number of cases merged.
+pub fn merge(o: &MergeOptions) -> Result<usize, AppError> {
+    let inputs: Vec<&std::path::Path> = o.inputs.iter().map(|p| p.as_path()).collect();
     let mut outputs = crate::output::Transaction::new(&inputs);
-    outputs.check_targets(&[&a.out])?;
-    let mut tables = Vec::with_capacity(a.inputs.len());
-    for path in &a.inputs {
-        let text = std::fs::read_to_string(path).map_err(|e| CliError::io(path, e))?;
+    outputs.check_targets(&[&o.out])?;
+    let mut tables = Vec::with_capacity(o.inputs.len());
+    for path in &o.inputs {
+        let text = std::fs::read_to_string(path).map_err(|e| AppError::io(path, e))?;
         let t = if is_json(path) { read_json(path, &text)? } else { read_csv(path, &text)? };
         if t.header.len() < 2 || t.header[0] != "case" || t.header[1] != "n_cases" {
-            return Err(CliError::io(path, "the first columns are not \"case,n_cases\" (not written by pneumo sweep?)"));
+            return Err(AppError::io(path, "the first columns are not \"case,n_cases\" (not written by pneumo sweep?)"));
         }
         tables.push(t);
     }
-    let merged = merge_tables(&a.inputs, &tables, a.max_cases)?;
-    let bytes = if is_json(&a.out) { to_json(&merged) } else { to_csv(&merged)? };
-    outputs.add(&a.out, &bytes)?;
+    let merged = merge_tables(&o.inputs, &tables, o.max_cases)?;
+    let bytes = if is_json(&o.out) { to_json(&merged) } else { to_csv(&merged)? };
+    outputs.add(&o.out, &bytes)?;
     outputs.commit()?;
-    println!("merged {} cases from {} files into {}", merged.rows.len(), tables.len(), a.out.display());
-    Ok(())
+    Ok(merged.rows.len())
 }
 
 /// Join tables whose headers agree (up to the number of cycle columns) and
 /// sort their rows by case; every case 0..n_cases must appear exactly once.
-fn merge_tables(paths: &[PathBuf], tables: &[Table], max_cases: usize) -> Result<Table, CliError> {
+fn merge_tables(paths: &[PathBuf], tables: &[Table], max_cases: usize) -> Result<Table, AppError> {
     let fixed = |t: &Table| t.header.iter().filter(|h| !is_cycle_column(h)).cloned().collect::<Vec<_>>();
     // the header with the most cycle columns is the merged header
     let widest = (0..tables.len()).max_by_key(|&i| (tables[i].header.len(), std::cmp::Reverse(i))).unwrap_or(0);
-    let Some(widest_table) = tables.get(widest) else { return Err(CliError::Usage("nothing to merge".into())) };
+    let Some(widest_table) = tables.get(widest) else { return Err(AppError::Usage("nothing to merge".into())) };
     let header = widest_table.header.clone();
     let reference = fixed(widest_table);
     for (t, p) in tables.iter().zip(paths) {
         if fixed(t) != reference || t.header.iter().any(|h| !header.contains(h)) {
-            return Err(CliError::Usage(format!(
+            return Err(AppError::Usage(format!(
                 "{}: columns differ from {} ({} vs {})",
                 p.display(),
                 paths[widest].display(),
@@ -953,10 +986,10 @@ fn merge_tables(paths: &[PathBuf], tables: &[Table], max_cases: usize) -> Result
         let position: Vec<Option<usize>> = header.iter().map(|h| t.header.iter().position(|x| x == h)).collect();
         for row in &t.rows {
             let (Some(case), Some(n)) = (index(row.first()), index(row.get(1))) else {
-                return Err(CliError::io(p, "a row has no valid case index or n_cases"));
+                return Err(AppError::io(p, "a row has no valid case index or n_cases"));
             };
             if n > max_cases as u64 {
-                return Err(CliError::Data(format!(
+                return Err(AppError::Data(format!(
                     "{}: n_cases = {n} is more than --max-cases {max_cases} (a corrupt file, or raise the limit)",
                     crate::error::shown_path(p)
                 )));
@@ -964,7 +997,7 @@ fn merge_tables(paths: &[PathBuf], tables: &[Table], max_cases: usize) -> Result
             match total {
                 None => total = Some((n, f)),
                 Some((m, g)) if m != n => {
-                    return Err(CliError::Data(format!(
+                    return Err(AppError::Data(format!(
                         "{} has {n} cases in all but {} has {m}: shards of different sweeps?",
                         p.display(),
                         paths[g].display()
@@ -973,20 +1006,20 @@ fn merge_tables(paths: &[PathBuf], tables: &[Table], max_cases: usize) -> Result
                 Some(_) => {}
             }
             if case >= n {
-                return Err(CliError::io(p, format!("case {case} is out of range (n_cases = {n})")));
+                return Err(AppError::io(p, format!("case {case} is out of range (n_cases = {n})")));
             }
             let cells = position.iter().map(|pos| pos.and_then(|i| row.get(i).cloned()).unwrap_or(Cell::Empty)).collect();
             if let Some((g, _)) = by_case.insert(case, (f, cells)) {
-                return Err(CliError::Data(format!("case {case} appears twice ({} and {})", paths[g].display(), p.display())));
+                return Err(AppError::Data(format!("case {case} appears twice ({} and {})", paths[g].display(), p.display())));
             }
         }
     }
-    let Some((total, _)) = total else { return Err(CliError::Usage("the inputs hold no cases".into())) };
+    let Some((total, _)) = total else { return Err(AppError::Usage("the inputs hold no cases".into())) };
     let n_missing = total - by_case.len() as u64;
     if n_missing > 0 {
         let first: Vec<String> = (0..total).filter(|i| !by_case.contains_key(i)).take(20).map(|i| i.to_string()).collect();
         let more = if n_missing > 20 { ", ..." } else { "" };
-        return Err(CliError::Data(format!("{n_missing} of {total} cases missing: {}{more}", first.join(", "))));
+        return Err(AppError::Data(format!("{n_missing} of {total} cases missing: {}{more}", first.join(", "))));
     }
     Ok(Table { header, rows: by_case.into_values().map(|(_, r)| r).collect() })
 }

@@ -25,7 +25,7 @@
 //! rendered into a private scratch directory and read back; the caller writes
 //! the returned bytes with [`crate::output::Transaction`].
 
-use crate::error::CliError;
+use crate::error::AppError;
 use plotters::coord::Shift;
 use plotters::prelude::{
     BitMapBackend, ChartBuilder, Circle, Color, DrawingArea, DrawingAreaErrorKind, DrawingBackend, FontStyle, IntoDrawingArea, IntoFont,
@@ -61,93 +61,83 @@ const PALETTE: [RGBColor; 10] = [
     RGBColor(23, 190, 207),
 ];
 
-#[derive(clap::Args, Debug)]
-pub struct PlotArgs {
-    /// Result CSV file(s) written by `pneumo simulate --out`; the same signals are overlaid.
-    #[arg(value_name = "RESULT.csv", required_unless_present = "sweep", conflicts_with = "sweep")]
+/// A picture from result files or a sweep table (`pneumo plot`).
+#[derive(Debug, Clone, Default)]
+pub struct PlotOptions {
+    /// Result CSV files written by `pneumo simulate --out`; the same signals are overlaid.
     pub inputs: Vec<PathBuf>,
-    /// Signals to plot, comma separated (e.g. head.p,rod.p); default: every column.
-    #[arg(long = "signals", value_delimiter = ',', value_name = "ID.SIGNAL,...")]
+    /// Signals to plot (empty: every column).
     pub signals: Vec<String>,
     /// Scale each file's time to [0, 1] of its duration and each trace to [0, 1] of its range.
-    #[arg(long, conflicts_with = "sweep")]
     pub normalize: bool,
-    /// Horizontal axis: a signal column instead of time (e.g. piston.x), or with --sweep the
-    /// varied parameter column (e.g. flow_control.C).
-    #[arg(long, value_name = "COLUMN")]
+    /// Horizontal axis: a signal column instead of time (e.g. piston.x), or
+    /// with `sweep` the varied parameter column (e.g. flow_control.C).
     pub x: Option<String>,
     /// Sweep table (CSV: varied parameters in SI, cycle_time_s, optional error column).
-    #[arg(long, value_name = "SWEEP.csv")]
     pub sweep: Option<PathBuf>,
-    /// Sweep column on the vertical axis [default: cycle_time_s].
-    #[arg(long, value_name = "COLUMN", requires = "sweep")]
+    /// Sweep column on the vertical axis (None: cycle_time_s).
     pub y: Option<String>,
     /// Sweep column whose values give one line each (e.g. supply.p).
-    #[arg(long, value_name = "COLUMN", requires = "sweep")]
     pub series: Option<String>,
     /// Picture to write (.png or .svg).
-    #[arg(short = 'o', long = "output", value_name = "FILE.png|FILE.svg")]
     pub output: PathBuf,
     /// Title of the picture.
-    #[arg(long)]
     pub title: Option<String>,
-    /// Vertical range LO,HI in the axis' display units; points outside break the line
-    /// (e.g. 0.5,2 for a polytropic index that runs off to infinity when ρ̇ = 0).
-    #[arg(long = "y-range", value_name = "LO,HI", value_delimiter = ',', allow_negative_numbers = true)]
+    /// Vertical range [LO, HI] in the axis' display units (empty: automatic);
+    /// points outside break the line.
     pub y_range: Vec<f64>,
 }
 
-pub fn run(a: &PlotArgs) -> Result<(), CliError> {
-    format_of(&a.output)?;
-    let inputs: Vec<&Path> = a.inputs.iter().chain(a.sweep.iter()).map(|p| p.as_path()).collect();
+/// Draw the picture `o` asks for and write it.
+pub fn plot(o: &PlotOptions) -> Result<(), AppError> {
+    format_of(&o.output)?;
+    let inputs: Vec<&Path> = o.inputs.iter().chain(o.sweep.iter()).map(|p| p.as_path()).collect();
     let mut outputs = crate::output::Transaction::new(&inputs);
-    outputs.check_targets(&[&a.output])?;
-    let figure = match &a.sweep {
+    outputs.check_targets(&[&o.output])?;
+    let figure = match &o.sweep {
         Some(sweep) => {
-            if !a.signals.is_empty() {
-                return Err(CliError::Usage("--signals does not apply to --sweep (use --y and --series)".into()));
+            if !o.signals.is_empty() {
+                return Err(AppError::Usage("--signals does not apply to --sweep (use --y and --series)".into()));
             }
-            let x = a
+            let x = o
                 .x
                 .as_deref()
-                .ok_or_else(|| CliError::Usage("--sweep needs --x <column of the varied parameter> (e.g. --x flow_control.C)".into()))?;
-            let y = a.y.as_deref().unwrap_or("cycle_time_s");
-            sweep_figure(&read_table(sweep)?, x, y, a.series.as_deref(), a.title.as_deref())?
+                .ok_or_else(|| AppError::Usage("--sweep needs --x <column of the varied parameter> (e.g. --x flow_control.C)".into()))?;
+            let y = o.y.as_deref().unwrap_or("cycle_time_s");
+            sweep_figure(&read_table(sweep)?, x, y, o.series.as_deref(), o.title.as_deref())?
         }
         None => {
-            let mut tables = Vec::with_capacity(a.inputs.len());
-            for p in &a.inputs {
+            let mut tables = Vec::with_capacity(o.inputs.len());
+            for p in &o.inputs {
                 tables.push(read_table(p)?);
             }
-            overlay_figure(&tables, &a.signals, a.x.as_deref(), a.normalize, a.title.as_deref())?
+            overlay_figure(&tables, &o.signals, o.x.as_deref(), o.normalize, o.title.as_deref())?
         }
     };
     let mut figure = figure;
-    if !a.y_range.is_empty() && a.y_range.len() != 2 {
-        return Err(CliError::Usage("--y-range takes two numbers: LO,HI".into()));
+    if !o.y_range.is_empty() && o.y_range.len() != 2 {
+        return Err(AppError::Usage("--y-range takes two numbers: LO,HI".into()));
     }
-    if let [lo, hi] = a.y_range[..] {
+    if let [lo, hi] = o.y_range[..] {
         if lo.is_nan() || hi.is_nan() || lo >= hi {
-            return Err(CliError::Usage(format!("--y-range needs LO < HI, got {lo},{hi}")));
+            return Err(AppError::Usage(format!("--y-range needs LO < HI, got {lo},{hi}")));
         }
         clip_vertical(&mut figure, lo, hi);
     }
-    let bytes = render(&figure, &a.output)?;
-    outputs.add(&a.output, &bytes)?;
-    outputs.commit()?;
-    println!("wrote {}", crate::error::shown_path(&a.output));
-    Ok(())
+    let bytes = render(&figure, &o.output)?;
+    outputs.add(&o.output, &bytes)?;
+    outputs.commit()
 }
 
 /// Render the given columns of a result over time; PNG or SVG by the path's extension.
-pub fn traces_image(result: &solve::SimResult, columns: &[usize], path: &Path) -> Result<Vec<u8>, CliError> {
+pub fn traces_image(result: &solve::SimResult, columns: &[usize], path: &Path) -> Result<Vec<u8>, AppError> {
     format_of(path)?;
     if columns.is_empty() {
-        return Err(CliError::Usage("nothing to plot: no signals selected".into()));
+        return Err(AppError::Usage("nothing to plot: no signals selected".into()));
     }
     let mut items = Vec::with_capacity(columns.len());
     for &c in columns {
-        let name = result.columns.get(c).ok_or_else(|| CliError::Usage(format!("no result column number {c} to plot")))?;
+        let name = result.columns.get(c).ok_or_else(|| AppError::Usage(format!("no result column number {c} to plot")))?;
         let q = quantity_of_unit(result.units.get(c).map(String::as_str).unwrap_or(""));
         let points = result.times.iter().zip(&result.rows).map(|(&t, row)| (t, row.get(c).copied().flatten().map(|v| q.show(v)))).collect();
         items.push((q, Trace { label: name.clone(), points, markers: false }));
@@ -354,17 +344,17 @@ struct Table {
     lines: Vec<u64>,
 }
 
-fn read_table(path: &Path) -> Result<Table, CliError> {
-    let text = std::fs::read(path).map_err(|e| CliError::io(path, e))?;
+fn read_table(path: &Path) -> Result<Table, AppError> {
+    let text = std::fs::read(path).map_err(|e| AppError::io(path, e))?;
     let mut reader = csv::ReaderBuilder::new().has_headers(true).trim(csv::Trim::All).from_reader(text.as_slice());
     let csv_error = |e: csv::Error| match e.position() {
-        Some(pos) => CliError::Data(format!("{}: line {}: {}", path.display(), pos.line(), csv_message(&e))),
-        None => CliError::Data(format!("{}: {}", path.display(), csv_message(&e))),
+        Some(pos) => AppError::Data(format!("{}: line {}: {}", path.display(), pos.line(), csv_message(&e))),
+        None => AppError::Data(format!("{}: {}", path.display(), csv_message(&e))),
     };
     let header: Vec<(String, Option<String>)> = reader.headers().map_err(csv_error)?.iter().map(crate::output::split_header).collect();
     let (columns, units): (Vec<String>, Vec<Option<String>>) = header.into_iter().unzip();
     if columns.iter().all(|c| c.is_empty()) {
-        return Err(CliError::Data(format!("{}: line 1: no header row", path.display())));
+        return Err(AppError::Data(format!("{}: line 1: no header row", path.display())));
     }
     let mut rows = Vec::new();
     let mut lines = Vec::new();
@@ -405,21 +395,21 @@ impl Table {
     }
 
     /// Column index by exact name, or an error listing the available columns.
-    fn column(&self, name: &str) -> Result<usize, CliError> {
+    fn column(&self, name: &str) -> Result<usize, AppError> {
         self.columns
             .iter()
             .position(|c| c == name)
-            .ok_or_else(|| CliError::Data(format!("{}: no column \"{name}\" (available: {})", self.name(), self.columns.join(", "))))
+            .ok_or_else(|| AppError::Data(format!("{}: no column \"{name}\" (available: {})", self.name(), self.columns.join(", "))))
     }
 
     /// Number in a cell: empty or non-finite = undefined; other text is an error naming file and line.
-    fn value(&self, row: usize, col: usize) -> Result<Option<f64>, CliError> {
+    fn value(&self, row: usize, col: usize) -> Result<Option<f64>, AppError> {
         let cell = self.rows.get(row).and_then(|r| r.get(col)).map(String::as_str).unwrap_or("");
         if cell.is_empty() {
             return Ok(None);
         }
         let v: f64 = cell.parse().map_err(|_| {
-            CliError::Data(format!(
+            AppError::Data(format!(
                 "{}: line {}: column \"{}\": \"{cell}\" is not a number",
                 self.name(),
                 self.lines.get(row).copied().unwrap_or(0),
@@ -430,7 +420,7 @@ impl Table {
     }
 
     /// Columns x and y as numbers, row by row.
-    fn pair(&self, x: usize, y: usize) -> Result<(Samples, Samples), CliError> {
+    fn pair(&self, x: usize, y: usize) -> Result<(Samples, Samples), AppError> {
         let mut xs = Vec::with_capacity(self.rows.len());
         let mut ys = Vec::with_capacity(self.rows.len());
         for r in 0..self.rows.len() {
@@ -463,13 +453,13 @@ fn normalise_time(values: &mut [Option<f64>]) {
 }
 
 /// Overlay the same signals from several result files.
-fn overlay_figure(tables: &[Table], signals: &[String], x: Option<&str>, normalize: bool, title: Option<&str>) -> Result<Figure, CliError> {
-    let first = tables.first().ok_or_else(|| CliError::Usage("pneumo plot needs at least one result CSV".into()))?;
+fn overlay_figure(tables: &[Table], signals: &[String], x: Option<&str>, normalize: bool, title: Option<&str>) -> Result<Figure, AppError> {
+    let first = tables.first().ok_or_else(|| AppError::Usage("pneumo plot needs at least one result CSV".into()))?;
     let x_name = x.unwrap_or("t");
     let signals: Vec<String> =
         if signals.is_empty() { first.columns.iter().filter(|c| *c != x_name && *c != "t").cloned().collect() } else { signals.to_vec() };
     if signals.is_empty() {
-        return Err(CliError::Data(format!("{}: no signal columns to plot", first.name())));
+        return Err(AppError::Data(format!("{}: no signal columns to plot", first.name())));
     }
     let x_q = match x {
         Some(_) => quantity_of_unit(first.unit(first.column(x_name)?)),
@@ -562,7 +552,7 @@ fn result_quantity(column: &str) -> Quantity {
 }
 
 /// Sweep column by name; "cycle_time" also finds "cycle_time_s".
-fn sweep_column(table: &Table, name: &str) -> Result<usize, CliError> {
+fn sweep_column(table: &Table, name: &str) -> Result<usize, AppError> {
     let alt = format!("{name}_s");
     match table.columns.iter().position(|c| c == name || *c == alt) {
         Some(i) => Ok(i),
@@ -571,7 +561,7 @@ fn sweep_column(table: &Table, name: &str) -> Result<usize, CliError> {
 }
 
 /// Cycle time (or another result column) against a swept parameter, one line per series value.
-fn sweep_figure(table: &Table, x: &str, y: &str, series: Option<&str>, title: Option<&str>) -> Result<Figure, CliError> {
+fn sweep_figure(table: &Table, x: &str, y: &str, series: Option<&str>, title: Option<&str>) -> Result<Figure, AppError> {
     let xc = sweep_column(table, x)?;
     let yc = sweep_column(table, y)?;
     let sc = series.map(|s| sweep_column(table, s)).transpose()?;
@@ -601,7 +591,7 @@ fn sweep_figure(table: &Table, x: &str, y: &str, series: Option<&str>, title: Op
         used += 1;
     }
     if used == 0 {
-        return Err(CliError::Data(format!(
+        return Err(AppError::Data(format!(
             "{}: no rows to plot ({} rows, {failed} with errors, the rest without {} or {})",
             table.name(),
             table.rows.len(),
@@ -661,22 +651,22 @@ enum Format {
     Svg,
 }
 
-fn format_of(path: &Path) -> Result<Format, CliError> {
+fn format_of(path: &Path) -> Result<Format, AppError> {
     match path.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase).as_deref() {
         Some("png") => Ok(Format::Png),
         Some("svg") => Ok(Format::Svg),
-        _ => Err(CliError::Usage(format!("cannot plot to {}: the file name must end in .png or .svg", path.display()))),
+        _ => Err(AppError::Usage(format!("cannot plot to {}: the file name must end in .png or .svg", path.display()))),
     }
 }
 
 /// Register the bundled font once per process.
-fn ensure_font() -> Result<(), CliError> {
+fn ensure_font() -> Result<(), AppError> {
     static REGISTERED: OnceLock<bool> = OnceLock::new();
     let ok = *REGISTERED.get_or_init(|| plotters::style::register_font(FONT_FAMILY, FontStyle::Normal, FONT).is_ok());
     if ok {
         Ok(())
     } else {
-        Err(CliError::Data("the bundled font DejaVuSans.ttf could not be read".into()))
+        Err(AppError::Data("the bundled font DejaVuSans.ttf could not be read".into()))
     }
 }
 
@@ -686,7 +676,7 @@ struct ScratchDir {
 }
 
 impl ScratchDir {
-    fn new() -> Result<Self, CliError> {
+    fn new() -> Result<Self, AppError> {
         static COUNTER: AtomicU64 = AtomicU64::new(0);
         let base = std::env::temp_dir();
         let mut last_err = None;
@@ -697,10 +687,10 @@ impl ScratchDir {
             match std::fs::create_dir(&path) {
                 Ok(()) => return Ok(ScratchDir { path }),
                 Err(e) if e.kind() == std::io::ErrorKind::AlreadyExists => last_err = Some(e),
-                Err(e) => return Err(CliError::io(&path, e)),
+                Err(e) => return Err(AppError::io(&path, e)),
             }
         }
-        Err(CliError::io(&base, last_err.map(|e| e.to_string()).unwrap_or_default()))
+        Err(AppError::io(&base, last_err.map(|e| e.to_string()).unwrap_or_default()))
     }
 }
 
@@ -711,15 +701,15 @@ impl Drop for ScratchDir {
 }
 
 /// Draw a figure into PNG or SVG bytes (by the extension of `path`, which is not written).
-fn render(fig: &Figure, path: &Path) -> Result<Vec<u8>, CliError> {
+fn render(fig: &Figure, path: &Path) -> Result<Vec<u8>, AppError> {
     let format = format_of(path)?;
     if fig.panels.is_empty() {
-        return Err(CliError::Usage("nothing to plot".into()));
+        return Err(AppError::Usage("nothing to plot".into()));
     }
     ensure_font()?;
     let height = TITLE_HEIGHT + PANEL_HEIGHT * fig.panels.len() as u32 + if fig.note.is_some() { NOTE_HEIGHT } else { 0 };
     let size = (WIDTH, height);
-    let fail = |e: String| CliError::Data(format!("cannot draw {}: {e}", path.display()));
+    let fail = |e: String| AppError::Data(format!("cannot draw {}: {e}", path.display()));
     match format {
         Format::Svg => {
             let mut text = String::new();
@@ -741,11 +731,11 @@ fn render(fig: &Figure, path: &Path) -> Result<Vec<u8>, CliError> {
 /// Let `draw` write a PNG file into a private scratch directory and return its
 /// bytes (plotters' bitmap backend writes to a path; the caller then writes
 /// the bytes through [`crate::output::Transaction`], which knows about devices and links).
-pub fn png_via_scratch(draw: impl FnOnce(&Path) -> Result<(), CliError>) -> Result<Vec<u8>, CliError> {
+pub fn png_via_scratch(draw: impl FnOnce(&Path) -> Result<(), AppError>) -> Result<Vec<u8>, AppError> {
     let dir = ScratchDir::new()?;
     let file = dir.path.join("plot.png");
     draw(&file)?;
-    std::fs::read(&file).map_err(|e| CliError::io(&file, e))
+    std::fs::read(&file).map_err(|e| AppError::io(&file, e))
 }
 
 /// Largest magnitude drawn: values beyond it are drawn at it (an axis over
@@ -993,7 +983,7 @@ mod tests {
         let r = synthetic();
         for name in ["fig.jpg", "fig", "fig.png.txt"] {
             match traces_image(&r, &[0], Path::new(name)) {
-                Err(CliError::Usage(m)) => assert!(m.contains(".png") && m.contains(".svg") && m.contains(name), "{m}"),
+                Err(AppError::Usage(m)) => assert!(m.contains(".png") && m.contains(".svg") && m.contains(name), "{m}"),
                 other => panic!("{name}: expected a usage error, got {other:?}"),
             }
         }

@@ -1,7 +1,7 @@
 //! Running one simulation from a netlist with overrides: shared by
 //! `simulate`, `sweep` and the Python package.
 
-use crate::error::CliError;
+use crate::error::AppError;
 use graph::FlatNetlist;
 
 /// Inputs of one run besides the netlist file.
@@ -25,7 +25,7 @@ pub struct Run {
 
 /// Run a netlist already loaded and expanded (`spec.sets` are
 /// applied to it first); lets `sweep` read the file once for all cases.
-pub fn run_flat(flat: FlatNetlist, spec: &RunSpec) -> Result<Run, CliError> {
+pub fn run_flat(flat: FlatNetlist, spec: &RunSpec) -> Result<Run, AppError> {
     execute(prepare(flat, spec)?)
 }
 
@@ -39,7 +39,7 @@ pub struct Prepared {
 }
 
 /// Apply overrides, build the circuit and settle the run settings.
-pub fn prepare(mut flat: FlatNetlist, spec: &RunSpec) -> Result<Prepared, CliError> {
+pub fn prepare(mut flat: FlatNetlist, spec: &RunSpec) -> Result<Prepared, AppError> {
     for s in &spec.sets {
         graph::apply_set(&mut flat, s)?;
     }
@@ -54,7 +54,7 @@ pub fn prepare(mut flat: FlatNetlist, spec: &RunSpec) -> Result<Prepared, CliErr
     }
     if let Some(t) = spec.t_end {
         if !(t > 0.0 && t.is_finite()) {
-            return Err(CliError::Usage(format!("--t-end must be > 0 s, got {t}")));
+            return Err(AppError::Usage(format!("--t-end must be > 0 s, got {t}")));
         }
         opts.t_end = t;
         // an explicit end time without --cycles runs to that time
@@ -66,13 +66,13 @@ pub fn prepare(mut flat: FlatNetlist, spec: &RunSpec) -> Result<Prepared, CliErr
     let name = circuit.name.clone();
     let warnings = circuit.warnings.clone();
     let model = solve::Model::new(circuit);
-    solve::budget::check(&model, &opts, crate::load::limits().max_memory_mib).map_err(|e| CliError::Usage(e.to_string()))?;
+    solve::budget::check(&model, &opts, crate::load::limits().max_memory_mib).map_err(|e| AppError::Usage(e.to_string()))?;
     Ok(Prepared { name, outputs, model, opts, warnings })
 }
 
 /// Run a prepared model. A run that counts cycles and reaches its end time
 /// first is still a result; `incomplete` then says where it stalled.
-pub fn execute(mut p: Prepared) -> Result<Run, CliError> {
+pub fn execute(mut p: Prepared) -> Result<Run, AppError> {
     let result = solve::simulate(&mut p.model, &p.opts)?;
     let incomplete = match p.opts.cycles {
         Some(n) if result.completed_cycles() < n => Some(format!(

@@ -11,27 +11,28 @@
 //! (τ_T free, to p and to the `T` column when there is one) and reported;
 //! (a) the unloading time τ_U of the choked part of the trace and paper
 //! Eq. 36, C = K_T0·V/(γ·p_N·τ_U) — the adiabatic limit (n = 1 in place of γ
-//! when (b) finds the discharge isothermal). Prints one block (or JSON with
-//! `--json`) with standard errors, the thermal model and the misfit, and the
-//! ISO 6358 choked flow each estimate implies; warnings (a misfit well above
-//! the noise, τ_T not identifiable) go to stderr, one line each.
+//! when (b) finds the discharge isothermal). Returns one block of text (or
+//! JSON) with standard errors, the thermal model and the misfit, and the
+//! ISO 6358 choked flow each estimate implies, and warnings (a misfit well
+//! above the noise, τ_T not identifiable), one line each.
 //!
 //! T0 is taken from `--T0`, else from the first `T` sample, else 293.15 K.
 //! p_atm from `--p-atm`, else fitted with C and b (started at 1.01325 bar,
 //! or at the end of the trace when it ends lower). Errors name the file and
 //! the line at fault.
 
-use crate::error::CliError;
+use crate::error::AppError;
 use identify::discharge::{
     analyse, p_atm_start, AnalysisOptions, DischargeData, DischargeReport, DischargeSetup, ThermalModel, ThermalOption,
 };
 use std::path::{Path, PathBuf};
 use units::dim;
 
-/// Thermal model named on the command line.
-#[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
-pub enum ThermalArg {
+/// Thermal model of the tank as the user names it (`--thermal`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Thermal {
     /// Fit τ_T (to p, and to T when the data have it) and keep a limit unless the data reject it.
+    #[default]
     Auto,
     /// τ_T = ∞ (the assumption of Eq. 36).
     Adiabatic,
@@ -39,84 +40,86 @@ pub enum ThermalArg {
     Isothermal,
 }
 
-#[derive(clap::Args, Debug)]
-pub struct ConductanceArgs {
+/// A discharge test to analyse (`pneumo conductance`). Quantities are text
+/// with units, parsed here ("1 L", "1.013 bar", "20 degC", "1 s").
+#[derive(Debug, Clone, Default)]
+pub struct ConductanceOptions {
     /// Volume discharged (tank plus line), e.g. "1 L" (a bare number is m³).
-    #[arg(long)]
     pub volume: String,
     /// CSV file with header t,p (optionally T), SI units: s, Pa absolute, K.
-    #[arg(long, value_name = "FILE.csv")]
     pub data: PathBuf,
-    /// Atmospheric pressure downstream of the restriction (default: fitted
+    /// Atmospheric pressure downstream of the restriction (None: fitted
     /// with C and b, started at 1.01325 bar or at the end of the trace).
-    #[arg(long = "p-atm")]
     pub p_atm: Option<String>,
-    /// Initial gas (and wall) temperature (default: first T sample, else 293.15 K).
-    #[arg(long = "T0")]
+    /// Initial gas (and wall) temperature (None: first T sample, else 293.15 K).
     pub t0: Option<String>,
     /// Thermal model of the tank.
-    #[arg(long, value_enum, default_value_t = ThermalArg::Auto)]
-    pub thermal: ThermalArg,
+    pub thermal: Thermal,
     /// Thermal time constant τ_T of the tank, known beforehand, e.g. "1 s"
     /// ("inf": adiabatic, "0": isothermal); replaces the fitted one.
-    #[arg(long = "tau-thermal")]
     pub tau_thermal: Option<String>,
     /// Fit the pressure trace only, even when the data have a T column (T
     /// still gives T0).
-    #[arg(long = "pressure-only")]
     pub pressure_only: bool,
     /// Critical ratio bounding the choked window of the unloading-time
-    /// estimate (default: b from the model fit).
-    #[arg(long = "b-window")]
+    /// estimate (None: b from the model fit).
     pub b_window: Option<f64>,
-    /// Print the report as JSON.
-    #[arg(long)]
+    /// The report as JSON instead of text.
     pub json: bool,
+}
+
+/// What the analysis reports: warnings (one line each, starting with the
+/// data file's name) and the report, as text or JSON.
+#[derive(Debug, Clone)]
+pub struct ConductanceReport {
+    pub warnings: Vec<String>,
+    pub text: String,
 }
 
 const LPMB: f64 = 1e-3 / 60.0 / 1e5;
 
 /// The thermal option from `--thermal` and `--tau-thermal`.
-fn thermal_option(a: &ConductanceArgs) -> Result<ThermalOption, CliError> {
+fn thermal_option(a: &ConductanceOptions) -> Result<ThermalOption, AppError> {
     let Some(text) = &a.tau_thermal else {
         return Ok(match a.thermal {
-            ThermalArg::Auto => ThermalOption::Auto,
-            ThermalArg::Adiabatic => ThermalOption::Adiabatic,
-            ThermalArg::Isothermal => ThermalOption::Isothermal,
+            Thermal::Auto => ThermalOption::Auto,
+            Thermal::Adiabatic => ThermalOption::Adiabatic,
+            Thermal::Isothermal => ThermalOption::Isothermal,
         });
     };
-    if a.thermal != ThermalArg::Auto {
-        return Err(CliError::Usage("give either --thermal or --tau-thermal, not both".into()));
+    if a.thermal != Thermal::Auto {
+        return Err(AppError::Usage("give either --thermal or --tau-thermal, not both".into()));
     }
     if matches!(text.trim(), "inf" | "infinity" | "∞") {
         return Ok(ThermalOption::Adiabatic);
     }
-    let tau = units::parse_quantity(text, dim::TIME).map_err(|e| CliError::Usage(format!("--tau-thermal \"{text}\": {e}")))?;
+    let tau = units::parse_quantity(text, dim::TIME).map_err(|e| AppError::Usage(format!("--tau-thermal \"{text}\": {e}")))?;
     if tau == 0.0 {
         Ok(ThermalOption::Isothermal)
     } else if tau > 0.0 {
         Ok(ThermalOption::Given(tau))
     } else {
-        Err(CliError::Usage(format!("--tau-thermal \"{text}\": must be >= 0 s (or \"inf\")")))
+        Err(AppError::Usage(format!("--tau-thermal \"{text}\": must be >= 0 s (or \"inf\")")))
     }
 }
 
-pub fn run(a: &ConductanceArgs) -> Result<(), CliError> {
+/// Estimate C and b from the discharge test of `a`.
+pub fn conductance(a: &ConductanceOptions) -> Result<ConductanceReport, AppError> {
     let quantity =
-        |text: &str, d, what: &str| units::parse_quantity(text, d).map_err(|e| CliError::Usage(format!("--{what} \"{text}\": {e}")));
+        |text: &str, d, what: &str| units::parse_quantity(text, d).map_err(|e| AppError::Usage(format!("--{what} \"{text}\": {e}")));
     let volume = quantity(&a.volume, dim::VOLUME, "volume")?;
     if volume.is_nan() || volume <= 0.0 {
-        return Err(CliError::Usage(format!("--volume \"{}\": must be > 0", a.volume)));
+        return Err(AppError::Usage(format!("--volume \"{}\": must be > 0", a.volume)));
     }
     if let Some(b) = a.b_window {
         if !(b > 0.0 && b < 1.0) {
-            return Err(CliError::Usage(format!("--b-window must be in (0, 1), got {b}")));
+            return Err(AppError::Usage(format!("--b-window must be in (0, 1), got {b}")));
         }
     }
     let thermal = thermal_option(a)?;
     let given_p_atm = a.p_atm.as_deref().map(|text| quantity(text, dim::PRESSURE, "p-atm")).transpose()?;
     if given_p_atm.is_some_and(|p| p.is_nan() || p <= 0.0) {
-        return Err(CliError::Usage("--p-atm must be > 0".into()));
+        return Err(AppError::Usage("--p-atm must be > 0".into()));
     }
     let given_t0 = a.t0.as_deref().map(|text| quantity(text, dim::TEMPERATURE, "T0")).transpose()?;
     let data = read_discharge_csv(&a.data)?;
@@ -124,7 +127,7 @@ pub fn run(a: &ConductanceArgs) -> Result<(), CliError> {
         (Some(t0), _) => t0,
         (None, Some(t)) => {
             if !(150.0..=600.0).contains(&t[0]) {
-                return Err(CliError::Data(format!(
+                return Err(AppError::Data(format!(
                     "{}: first T sample {} K is not a plausible absolute gas temperature (the T column must be in K; or give --T0)",
                     a.data.display(),
                     t[0]
@@ -135,7 +138,7 @@ pub fn run(a: &ConductanceArgs) -> Result<(), CliError> {
         (None, None) => 293.15,
     };
     if t0.is_nan() || t0 <= 0.0 {
-        return Err(CliError::Usage(format!("--T0 must be > 0 K, got {t0}")));
+        return Err(AppError::Usage(format!("--T0 must be > 0 K, got {t0}")));
     }
     // p_atm: given, or fitted from a start the trace does not end below
     let p_atm = given_p_atm.unwrap_or_else(|| p_atm_start(&data));
@@ -148,46 +151,43 @@ pub fn run(a: &ConductanceArgs) -> Result<(), CliError> {
         ..AnalysisOptions::default()
     };
     let p_atm_source = if given_p_atm.is_some() { "given" } else { "fitted" };
-    let report = analyse(&data, &setup, &opts).map_err(|e| CliError::Data(format!("{}: {e}", a.data.display())))?;
-    for w in &report.warnings {
-        eprintln!("warning: {}: {w}", a.data.display());
-    }
-    if a.json {
-        let mut value = serde_json::to_value(&report).map_err(|e| CliError::Data(e.to_string()))?;
+    let report = analyse(&data, &setup, &opts).map_err(|e| AppError::Data(format!("{}: {e}", a.data.display())))?;
+    let warnings = report.warnings.iter().map(|w| format!("{}: {w}", a.data.display())).collect();
+    let text = if a.json {
+        let mut value = serde_json::to_value(&report).map_err(|e| AppError::Data(e.to_string()))?;
         if let Some(obj) = value.as_object_mut() {
             obj.insert("p_atm_source".into(), p_atm_source.into());
         }
-        let text = serde_json::to_string_pretty(&value).map_err(|e| CliError::Data(e.to_string()))?;
-        println!("{text}");
+        serde_json::to_string_pretty(&value).map_err(|e| AppError::Data(e.to_string()))? + "\n"
     } else {
-        print!("{}", render(&report, &a.data, p_atm_source));
-    }
-    Ok(())
+        render(&report, &a.data, p_atm_source)
+    };
+    Ok(ConductanceReport { warnings, text })
 }
 
 /// Read the discharge CSV; every error names the file and line.
-pub fn read_discharge_csv(path: &Path) -> Result<DischargeData, CliError> {
-    let text = std::fs::read_to_string(path).map_err(|e| CliError::io(path, e))?;
+pub fn read_discharge_csv(path: &Path) -> Result<DischargeData, AppError> {
+    let text = std::fs::read_to_string(path).map_err(|e| AppError::io(path, e))?;
     parse_discharge_csv(&text, &path.display().to_string())
 }
 
-fn parse_discharge_csv(text: &str, origin: &str) -> Result<DischargeData, CliError> {
+fn parse_discharge_csv(text: &str, origin: &str) -> Result<DischargeData, AppError> {
     // the table itself (header, comments, numbers, increasing t) is read by
     // the one CSV reader of measured data; the discharge test adds its own
     // requirements: a pressure column, every sample present, p and T > 0
-    let table = identify::data::parse_csv(text, origin).map_err(|e| CliError::Data(e.to_string()))?;
+    let table = identify::data::parse_csv(text, origin).map_err(|e| AppError::Data(e.to_string()))?;
     let p_col = table.channel("p").ok_or_else(|| {
-        CliError::Data(format!("{origin}: header must name columns \"t\" and \"p\" (optionally \"T\"), found t,{}", table.names.join(",")))
+        AppError::Data(format!("{origin}: header must name columns \"t\" and \"p\" (optionally \"T\"), found t,{}", table.names.join(",")))
     })?;
     let at = |i: usize| table.lines.get(i).copied().unwrap_or(0);
-    let column = |c: usize, name: &str, unit: &str| -> Result<Vec<f64>, CliError> {
+    let column = |c: usize, name: &str, unit: &str| -> Result<Vec<f64>, AppError> {
         table.values[c]
             .iter()
             .enumerate()
             .map(|(i, v)| match v {
-                None => Err(CliError::Data(format!("{origin}:{}: column \"{name}\": the sample is missing", at(i)))),
+                None => Err(AppError::Data(format!("{origin}:{}: column \"{name}\": the sample is missing", at(i)))),
                 Some(v) if *v <= 0.0 => {
-                    Err(CliError::Data(format!("{origin}:{}: {name} = {v} {unit}: absolute values must be > 0 (SI units: {unit})", at(i))))
+                    Err(AppError::Data(format!("{origin}:{}: {name} = {v} {unit}: absolute values must be > 0 (SI units: {unit})", at(i))))
                 }
                 Some(v) => Ok(*v),
             })
@@ -195,7 +195,7 @@ fn parse_discharge_csv(text: &str, origin: &str) -> Result<DischargeData, CliErr
     };
     let p = column(p_col, "p", "Pa")?;
     let temperature = table.channel("T").map(|c| column(c, "T", "K")).transpose()?;
-    DischargeData::new(table.times, p, temperature).map_err(|e| CliError::Data(format!("{origin}: {e}")))
+    DischargeData::new(table.times, p, temperature).map_err(|e| AppError::Data(format!("{origin}: {e}")))
 }
 
 /// "finite tau_T = 1.002 ± 0.012 s" etc.

@@ -15,7 +15,7 @@
 //! renaming over it would replace the device by a regular file. A symbolic
 //! link is followed, so the link stays a link.
 
-use crate::error::CliError;
+use crate::error::AppError;
 use solve::SimResult;
 use std::io::Write;
 use std::path::{Path, PathBuf};
@@ -79,7 +79,7 @@ impl Transaction {
     }
 
     /// Refuse outputs that are an input or each other, before any work is done.
-    pub fn check_targets(&self, outputs: &[&Path]) -> Result<(), CliError> {
+    pub fn check_targets(&self, outputs: &[&Path]) -> Result<(), AppError> {
         let ids: Vec<(PathBuf, FileIdentity)> = outputs.iter().filter_map(|p| identity(p).map(|id| (p.to_path_buf(), id))).collect();
         for (k, (path, id)) in ids.iter().enumerate() {
             let device = std::fs::metadata(&id.path).map(|m| !m.is_file() && !m.is_dir()).unwrap_or(false);
@@ -87,14 +87,14 @@ impl Transaction {
                 continue; // writing /dev/null twice loses nothing
             }
             if let Some((input, _)) = self.inputs.iter().find(|(_, i)| same(i, id)) {
-                return Err(CliError::Usage(format!(
+                return Err(AppError::Usage(format!(
                     "output {} is the input {}: refusing to overwrite it",
                     crate::error::shown_path(path),
                     crate::error::shown_path(input)
                 )));
             }
             if let Some((other, _)) = ids[..k].iter().find(|(_, o)| same(o, id)) {
-                return Err(CliError::Usage(format!(
+                return Err(AppError::Usage(format!(
                     "outputs {} and {} are the same file",
                     crate::error::shown_path(other),
                     crate::error::shown_path(path)
@@ -105,7 +105,7 @@ impl Transaction {
     }
 
     /// Stage `bytes` for `path`: a regular target is written to a temporary now.
-    pub fn add(&mut self, path: &Path, bytes: &[u8]) -> Result<(), CliError> {
+    pub fn add(&mut self, path: &Path, bytes: &[u8]) -> Result<(), AppError> {
         self.check_targets(&[path])?;
         if let Some(id) = identity(path) {
             let clash = self.staged.iter().any(|s| match s {
@@ -113,14 +113,14 @@ impl Transaction {
                 Staged::InPlace { .. } => false,
             });
             if clash {
-                return Err(CliError::Usage(format!("{} would be written twice", crate::error::shown_path(path))));
+                return Err(AppError::Usage(format!("{} would be written twice", crate::error::shown_path(path))));
             }
         }
         let target = match std::fs::canonicalize(path) {
             Ok(real) => {
-                let meta = std::fs::metadata(&real).map_err(|e| CliError::io(path, e))?;
+                let meta = std::fs::metadata(&real).map_err(|e| AppError::io(path, e))?;
                 if meta.is_dir() {
-                    return Err(CliError::Usage(format!("{} is a directory, not a file", crate::error::shown_path(path))));
+                    return Err(AppError::Usage(format!("{} is a directory, not a file", crate::error::shown_path(path))));
                 }
                 if !meta.is_file() {
                     self.staged.push(Staged::InPlace { target: real, bytes: bytes.to_vec(), shown: path.to_path_buf() });
@@ -132,7 +132,7 @@ impl Transaction {
             Err(_) => path.to_path_buf(),
         };
         let tmp = temporary_beside(&target, "tmp")
-            .ok_or_else(|| CliError::Usage(format!("{} is not a file name", crate::error::shown_path(path))))?;
+            .ok_or_else(|| AppError::Usage(format!("{} is not a file name", crate::error::shown_path(path))))?;
         let written = (|| {
             let mut f = std::fs::File::create(&tmp)?;
             f.write_all(bytes)?;
@@ -140,18 +140,18 @@ impl Transaction {
         })();
         if let Err(e) = written {
             let _ = std::fs::remove_file(&tmp);
-            return Err(CliError::io(path, e));
+            return Err(AppError::io(path, e));
         }
         self.staged.push(Staged::File { target, tmp, shown: path.to_path_buf() });
         Ok(())
     }
 
     /// Put every staged output in place, or none of them.
-    pub fn commit(mut self) -> Result<(), CliError> {
+    pub fn commit(mut self) -> Result<(), AppError> {
         let staged = std::mem::take(&mut self.staged);
         // 1. existing regular targets move aside
         let mut backups: Vec<(PathBuf, PathBuf)> = Vec::new();
-        let mut failure: Option<CliError> = None;
+        let mut failure: Option<AppError> = None;
         for s in &staged {
             if let Staged::File { target, shown, .. } = s {
                 if std::fs::symlink_metadata(target).is_ok() {
@@ -159,7 +159,7 @@ impl Transaction {
                     match std::fs::rename(target, &backup) {
                         Ok(()) => backups.push((target.clone(), backup)),
                         Err(e) => {
-                            failure = Some(CliError::io(shown, e));
+                            failure = Some(AppError::io(shown, e));
                             break;
                         }
                     }
@@ -174,7 +174,7 @@ impl Transaction {
                     match std::fs::rename(tmp, target) {
                         Ok(()) => placed.push(target.clone()),
                         Err(e) => {
-                            failure = Some(CliError::io(shown, e));
+                            failure = Some(AppError::io(shown, e));
                             break;
                         }
                     }
@@ -202,7 +202,7 @@ impl Transaction {
         // 3. devices and pipes, in place
         for s in staged {
             if let Staged::InPlace { target, bytes, shown } = s {
-                write_in_place(&target, &bytes).map_err(|e| CliError::io(&shown, e))?;
+                write_in_place(&target, &bytes).map_err(|e| AppError::io(&shown, e))?;
             }
         }
         Ok(())
@@ -235,14 +235,14 @@ fn write_in_place(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
 }
 
 /// Columns to write: all, or the selection (each must exist).
-pub fn select_columns(result: &SimResult, wanted: &[String]) -> Result<Vec<usize>, CliError> {
+pub fn select_columns(result: &SimResult, wanted: &[String]) -> Result<Vec<usize>, AppError> {
     if wanted.is_empty() {
         return Ok((0..result.columns.len()).collect());
     }
     wanted
         .iter()
         .map(|w| {
-            result.column(w).ok_or_else(|| CliError::Usage(format!("unknown signal \"{w}\" (available: {})", result.columns.join(", "))))
+            result.column(w).ok_or_else(|| AppError::Usage(format!("unknown signal \"{w}\" (available: {})", result.columns.join(", "))))
         })
         .collect()
 }
@@ -279,16 +279,6 @@ pub fn split_header(cell: &str) -> (String, Option<String>) {
     match cell.strip_suffix(']').and_then(|c| c.rsplit_once(" [")) {
         Some((name, unit)) => (name.trim().to_string(), Some(unit.trim().to_string())),
         None => (cell.to_string(), None),
-    }
-}
-
-/// Print warnings, one line each on stderr, without repeating a line.
-pub fn print_warnings(warnings: &[graph::Warning]) {
-    let mut seen = std::collections::BTreeSet::new();
-    for w in warnings {
-        if seen.insert(w) {
-            eprintln!("warning: {}", graph::escape(&w.to_string()));
-        }
     }
 }
 
@@ -443,7 +433,7 @@ mod tests {
     use super::*;
 
     /// One output on its own (a transaction of one file).
-    fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), CliError> {
+    fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), AppError> {
         let mut t = Transaction::new(&[]);
         t.add(path, bytes)?;
         t.commit()

@@ -1,7 +1,8 @@
-//! The CLI's error type: everything that can stop a command, as one line.
+//! The error of every use case: everything that can stop one, as one line,
+//! with the exit status a command-line front end gives it.
 
 #[derive(Debug, thiserror::Error)]
-pub enum CliError {
+pub enum AppError {
     #[error(transparent)]
     Graph(Box<graph::GraphError>),
     #[error(transparent)]
@@ -13,9 +14,15 @@ pub enum CliError {
     #[error("{0}")]
     Data(String),
     /// The run reached its end time before doing what it was asked (its
-    /// outputs were written); exit status [`CliError::EXIT_INCOMPLETE`].
+    /// outputs were written); exit status [`AppError::EXIT_INCOMPLETE`].
     #[error("{0}")]
     Incomplete(String),
+}
+
+/// A message as one line: control characters (newlines, terminal escapes)
+/// from any input it quotes are shown escaped.
+pub fn one_line(message: &str) -> String {
+    message.chars().map(|c| if c.is_control() { format!("\\u{{{:x}}}", c as u32) } else { c.to_string() }).collect()
 }
 
 /// A path for a one-line message: control characters escaped.
@@ -23,32 +30,32 @@ pub fn shown_path(path: &std::path::Path) -> String {
     graph::escape(&path.display().to_string())
 }
 
-impl CliError {
+impl AppError {
     /// Exit status of a run that ended before completing its cycles.
     pub const EXIT_INCOMPLETE: u8 = 3;
 
     /// Process exit status for this error: 3 for an incomplete run, 1 otherwise
-    /// (2 is clap's, for usage errors).
+    /// (2 is the command line's, for arguments it cannot parse).
     pub fn exit_code(&self) -> u8 {
         match self {
-            CliError::Incomplete(_) => Self::EXIT_INCOMPLETE,
+            AppError::Incomplete(_) => Self::EXIT_INCOMPLETE,
             _ => 1,
         }
     }
 
     pub fn io(path: &std::path::Path, e: impl std::fmt::Display) -> Self {
-        CliError::Io { path: shown_path(path), message: graph::escape(&e.to_string()) }
+        AppError::Io { path: shown_path(path), message: graph::escape(&e.to_string()) }
     }
 }
 
-impl From<graph::GraphError> for CliError {
+impl From<graph::GraphError> for AppError {
     fn from(e: graph::GraphError) -> Self {
-        CliError::Graph(Box::new(e))
+        AppError::Graph(Box::new(e))
     }
 }
 
-impl From<solve::SolveError> for CliError {
+impl From<solve::SolveError> for AppError {
     fn from(e: solve::SolveError) -> Self {
-        CliError::Solve(Box::new(e))
+        AppError::Solve(Box::new(e))
     }
 }

@@ -1,19 +1,20 @@
-//! `pneumo check`: validate a netlist and print its causality table, or
-//! write it as Graphviz with `--dot`.
+//! Checking a netlist (`pneumo check`, Python's `Model.check`): build the
+//! circuit, its causality and parameter tables and its rest state, and the
+//! circuit as Graphviz; and the listing of every block type (`pneumo blocks`).
 
-use crate::error::CliError;
+use crate::error::AppError;
 use std::fmt::Write;
 use std::path::PathBuf;
 
-#[derive(clap::Args, Debug)]
-pub struct CheckArgs {
+/// What to check: a netlist file, overrides, and where to write the circuit
+/// as Graphviz (`pneumo check --set … --dot f.dot`).
+#[derive(Debug, Clone, Default)]
+pub struct CheckOptions {
     /// Netlist file (JSON).
     pub model: PathBuf,
-    /// Override a parameter: ID.PARAM=VALUE.
-    #[arg(long = "set", value_name = "ID.PARAM=VALUE")]
+    /// Overrides `ID.PARAM=VALUE`, applied in order.
     pub sets: Vec<String>,
     /// Write the circuit as a Graphviz file.
-    #[arg(long, value_name = "FILE.dot")]
     pub dot: Option<PathBuf>,
 }
 
@@ -26,7 +27,7 @@ pub struct Checked {
 
 /// Build the circuit of `flat`, check its settings and compute its rest
 /// state; `warn` receives the circuit's warnings as soon as it is built.
-pub fn check(flat: &graph::FlatNetlist, warn: &mut dyn FnMut(&[graph::Warning])) -> Result<Checked, CliError> {
+pub fn check(flat: &graph::FlatNetlist, warn: &mut dyn FnMut(&[graph::Warning])) -> Result<Checked, AppError> {
     let circuit = graph::build(flat)?;
     solve::options_from(&circuit.simulation)?;
     warn(&circuit.warnings);
@@ -36,7 +37,7 @@ pub fn check(flat: &graph::FlatNetlist, warn: &mut dyn FnMut(&[graph::Warning]))
     let rest = circuit.simulation.initial == graph::netlist::InitialMode::Rest;
     let mut model = solve::Model::new(circuit);
     if rest {
-        let report = solve::rest::apply(&mut model).map_err(|e| CliError::Solve(Box::new(e.into())))?;
+        let report = solve::rest::apply(&mut model).map_err(|e| AppError::Solve(Box::new(e.into())))?;
         let _ = writeln!(text, "\ninitial state at rest ({} values):", report.values.len());
         for v in &report.values {
             let shown = match v.param {
@@ -50,21 +51,22 @@ pub fn check(flat: &graph::FlatNetlist, warn: &mut dyn FnMut(&[graph::Warning]))
     Ok(Checked { text, dot })
 }
 
-pub fn run(a: &CheckArgs) -> Result<(), CliError> {
-    let (flat, inputs) = crate::load::netlist_with_files(&a.model, &a.sets)?;
+/// Check the netlist file of `o` with its overrides and write the Graphviz
+/// file if asked; `warn` receives the circuit's warnings as soon as it is
+/// built. Returns what [`check`] finds (the text `pneumo check` prints).
+pub fn check_file(o: &CheckOptions, warn: &mut dyn FnMut(&[graph::Warning])) -> Result<Checked, AppError> {
+    let (flat, inputs) = crate::load::netlist_with_files(&o.model, &o.sets)?;
     let inputs: Vec<&std::path::Path> = inputs.iter().map(|p| p.as_path()).collect();
     let mut outputs = crate::output::Transaction::new(&inputs);
-    if let Some(dot) = &a.dot {
+    if let Some(dot) = &o.dot {
         outputs.check_targets(&[dot])?;
     }
-    let checked = check(&flat, &mut |w| crate::output::print_warnings(w))?;
-    if let Some(path) = &a.dot {
+    let checked = check(&flat, warn)?;
+    if let Some(path) = &o.dot {
         outputs.add(path, checked.dot.as_bytes())?;
         outputs.commit()?;
     }
-    print!("{}", checked.text);
-    println!("\nok: {} is a valid circuit", a.model.display());
-    Ok(())
+    Ok(checked)
 }
 
 /// All block types by family, with their ports (domain, causal role, unit),

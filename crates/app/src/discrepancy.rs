@@ -1,4 +1,5 @@
-//! `pneumo discrepancy`: where a model disagrees with measurements, which
+//! The discrepancy analysis (`pneumo discrepancy`, Python's
+//! `pneumo.discrepancy`): where a model disagrees with measurements, which
 //! physical effect it is missing, and the model with that effect added.
 //!
 //! Reads the model netlist and an experiments manifest
@@ -6,10 +7,10 @@
 //! with its operating point and column mapping), runs the workflow of
 //! [`identify::workflow`] (calibrate → diagnose → try the catalogue of
 //! candidate effects → select by held-out error, information criterion and
-//! parameter significance → show the gap shrink), and prints the verdict,
-//! or with `--json` the whole summary.
+//! parameter significance → show the gap shrink), and returns the outcome
+//! with the verdict as text ([`text_summary`]) and the whole summary as JSON.
 //!
-//! With `--report DIR` it writes, each file whole or not at all:
+//! With a report directory it writes, each file whole or not at all:
 //! - `model_with_<effect>.json` (or `model_with_<A>+<B>.json`): the
 //!   augmented netlist with the fitted values, runnable with
 //!   `pneumo simulate`; one per alternative when the verdict is ambiguous;
@@ -24,7 +25,7 @@
 //! (assets/fonts, Bitstream Vera licence). Pressures are shown in bar,
 //! positions in mm, everything else in SI; no physics is computed here.
 
-use crate::error::CliError;
+use crate::error::AppError;
 use crate::output::Transaction;
 use identify::candidates::{Candidate, Estimate};
 use identify::diagnose::Trace;
@@ -38,19 +39,24 @@ use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 use std::sync::OnceLock;
 
-#[derive(clap::Args, Debug)]
-pub struct DiscrepancyArgs {
+/// A discrepancy analysis as `pneumo discrepancy` takes it.
+#[derive(Debug, Clone, Default)]
+pub struct DiscrepancyOptions {
     /// Model netlist (JSON).
-    pub input: Option<PathBuf>,
+    pub model: PathBuf,
     /// Experiments manifest (JSON): data files, operating points, column mapping.
-    #[arg(long, value_name = "EXPERIMENTS.json")]
-    pub experiments: Option<PathBuf>,
+    pub experiments: PathBuf,
     /// Write the augmented netlist, figures and report.md into this directory.
-    #[arg(long, value_name = "DIR")]
     pub report: Option<PathBuf>,
-    /// Print the summary as JSON.
-    #[arg(long)]
-    pub json: bool,
+}
+
+/// What an analysis found: the workflow's outcome, its summary as JSON
+/// (what `--json` prints and `summary.json` holds) and the report files
+/// written.
+pub struct Found {
+    pub outcome: Outcome,
+    pub summary_json: String,
+    pub written: Vec<PathBuf>,
 }
 
 /// The experiments of a manifest, read and checked against a model, with
@@ -62,10 +68,10 @@ pub struct Experiments {
 
 /// Read the manifest at `manifest_path` and its data files (which must lie
 /// in its folder or below) and resolve them against the model `flat`.
-pub fn read_experiments(flat: &graph::FlatNetlist, manifest_path: &Path) -> Result<Experiments, CliError> {
+pub fn read_experiments(flat: &graph::FlatNetlist, manifest_path: &Path) -> Result<Experiments, AppError> {
     let text =
-        crate::load::read_text(manifest_path, crate::load::MAX_NETLIST_BYTES, "manifest").map_err(|e| CliError::io(manifest_path, e))?;
-    let manifest = identify::manifest::parse(&text, &manifest_path.display().to_string()).map_err(|e| CliError::Data(e.to_string()))?;
+        crate::load::read_text(manifest_path, crate::load::MAX_NETLIST_BYTES, "manifest").map_err(|e| AppError::io(manifest_path, e))?;
+    let manifest = identify::manifest::parse(&text, &manifest_path.display().to_string()).map_err(|e| AppError::Data(e.to_string()))?;
     let dir = manifest_path.parent().map(Path::to_path_buf).unwrap_or_default();
     let data_files = std::cell::RefCell::new(Vec::new());
     let folder = std::fs::canonicalize(if dir.as_os_str().is_empty() { Path::new(".") } else { &dir }).unwrap_or_else(|_| dir.clone());
@@ -90,55 +96,59 @@ pub fn read_experiments(flat: &graph::FlatNetlist, manifest_path: &Path) -> Resu
             .map(|t| (t, path.display().to_string()))
             .map_err(|e| format!("{}: {e}", crate::error::shown_path(&path)))
     };
-    let resolved = identify::manifest::resolve(&manifest, flat, &read).map_err(CliError::Data)?;
+    let resolved = identify::manifest::resolve(&manifest, flat, &read).map_err(AppError::Data)?;
     let mut files = vec![manifest_path.to_path_buf()];
     files.extend(data_files.into_inner());
     Ok(Experiments { resolved, files })
 }
 
 /// Run the workflow (calibrate, diagnose, try the catalogue, select).
-pub fn analyse(flat: &graph::FlatNetlist, e: &Experiments) -> Result<Outcome, CliError> {
-    identify::run(flat, &e.resolved.experiments, &e.resolved.calibrate, &e.resolved.options).map_err(|e| CliError::Data(e.to_string()))
+pub fn analyse(flat: &graph::FlatNetlist, e: &Experiments) -> Result<Outcome, AppError> {
+    identify::run(flat, &e.resolved.experiments, &e.resolved.calibrate, &e.resolved.options).map_err(|e| AppError::Data(e.to_string()))
 }
 
 /// The file names a report directory receives besides the netlists and fit figures.
 pub const REPORT_FILES: [&str; 3] = ["summary.json", "report.md", "residuals_by_phase.png"];
 
 /// Refuse a report directory that holds an input under a name the report writes.
-pub fn check_report_dir(out: &Path, inputs: &[PathBuf]) -> Result<(), CliError> {
+pub fn check_report_dir(out: &Path, inputs: &[PathBuf]) -> Result<(), AppError> {
     let targets: Vec<PathBuf> = REPORT_FILES.iter().map(|n| out.join(n)).collect();
     let refs: Vec<&Path> = targets.iter().map(|p| p.as_path()).collect();
     let ins: Vec<&Path> = inputs.iter().map(|p| p.as_path()).collect();
     Transaction::new(&ins).check_targets(&refs)
 }
 
-pub fn run(a: &DiscrepancyArgs) -> Result<(), CliError> {
-    let model_path = a
-        .input
-        .as_ref()
-        .ok_or_else(|| CliError::Usage("give the model netlist: pneumo discrepancy MODEL.json --experiments EXPERIMENTS.json".into()))?;
-    let manifest_path = a.experiments.as_ref().ok_or_else(|| CliError::Usage("give --experiments EXPERIMENTS.json".into()))?;
-    let (flat, mut inputs) = crate::load::netlist_with_files(model_path, &[])?;
-    let experiments = read_experiments(&flat, manifest_path)?;
+/// Read the model and the experiments of `o`, run the workflow and write
+/// the report directory if asked.
+pub fn discrepancy(o: &DiscrepancyOptions) -> Result<Found, AppError> {
+    let (flat, files) = crate::load::netlist_with_files(&o.model, &[])?;
+    run_workflow(&flat, &files, &o.model, &o.experiments, o.report.as_deref())
+}
+
+/// The workflow for a model already loaded: `flat`, read from `model_files`
+/// (the netlist at `model_path` and its subsystems, which no output may
+/// overwrite), against the manifest at `manifest_path`; with `report`,
+/// the report directory is written (every file or none).
+pub fn run_workflow(
+    flat: &graph::FlatNetlist,
+    model_files: &[PathBuf],
+    model_path: &Path,
+    manifest_path: &Path,
+    report: Option<&Path>,
+) -> Result<Found, AppError> {
+    let experiments = read_experiments(flat, manifest_path)?;
+    let mut inputs = model_files.to_vec();
     inputs.extend(experiments.files.iter().cloned());
-    if let Some(out) = &a.report {
+    if let Some(out) = report {
         check_report_dir(out, &inputs)?;
     }
-    let outcome = analyse(&flat, &experiments)?;
-    let json = serde_json::to_string_pretty(&outcome.summary).map_err(|e| CliError::Data(e.to_string()))?;
-    let mut written = Vec::new();
-    if let Some(out) = &a.report {
-        written = write_report(out, &inputs, model_path, manifest_path, &outcome, &json)?;
-    }
-    if a.json {
-        println!("{json}");
-    } else {
-        print!("{}", text_summary(&outcome));
-        for w in &written {
-            println!("wrote {}", w.display());
-        }
-    }
-    Ok(())
+    let outcome = analyse(flat, &experiments)?;
+    let summary_json = serde_json::to_string_pretty(&outcome.summary).map_err(|e| AppError::Data(e.to_string()))?;
+    let written = match report {
+        Some(out) => write_report(out, &inputs, model_path, manifest_path, &outcome, &summary_json)?,
+        None => Vec::new(),
+    };
+    Ok(Found { outcome, summary_json, written })
 }
 
 // ---------------------------------------------------------------- text
@@ -237,7 +247,7 @@ pub fn text_summary(o: &Outcome) -> String {
 // ---------------------------------------------------------------- netlists
 
 /// A flat netlist as a runnable netlist file (JSON text), with this description.
-pub fn netlist_json(flat: &graph::FlatNetlist, description: String) -> Result<String, CliError> {
+pub fn netlist_json(flat: &graph::FlatNetlist, description: String) -> Result<String, AppError> {
     // Expressions written inside subsystems refer to names of their scope;
     // in a flat file they become their values. Ids of expanded subsystems
     // ("cyl.head") are written with '_' ("cyl_head"), as file ids cannot
@@ -276,7 +286,7 @@ pub fn netlist_json(flat: &graph::FlatNetlist, description: String) -> Result<St
         simulation: flat.simulation.clone(),
         interface: None,
     };
-    serde_json::to_string_pretty(&n).map(|s| s + "\n").map_err(|e| CliError::Data(e.to_string()))
+    serde_json::to_string_pretty(&n).map(|s| s + "\n").map_err(|e| AppError::Data(e.to_string()))
 }
 
 /// File name of an augmented netlist for a structure label ("a+b").
@@ -296,12 +306,12 @@ const MEASURED: RGBColor = RGBColor(150, 150, 150);
 const BEFORE: RGBColor = RGBColor(255, 127, 14);
 const AFTER: RGBColor = RGBColor(31, 119, 180);
 
-fn ensure_font() -> Result<(), CliError> {
+fn ensure_font() -> Result<(), AppError> {
     static OK: OnceLock<bool> = OnceLock::new();
     if *OK.get_or_init(|| plotters::style::register_font(FONT, FontStyle::Normal, FONT_BYTES).is_ok()) {
         Ok(())
     } else {
-        Err(CliError::Data("the bundled font DejaVuSans.ttf could not be read".into()))
+        Err(AppError::Data("the bundled font DejaVuSans.ttf could not be read".into()))
     }
 }
 
@@ -320,10 +330,10 @@ fn display(signal: &str) -> (f64, String) {
 type Series = (&'static str, RGBColor, u32, Vec<(f64, f64)>);
 
 /// Render with `draw` and stage the PNG for `path` in the report's transaction.
-fn png(out: &mut Transaction, path: &Path, draw: impl FnOnce(&Path) -> Result<(), String>) -> Result<(), CliError> {
+fn png(out: &mut Transaction, path: &Path, draw: impl FnOnce(&Path) -> Result<(), String>) -> Result<(), AppError> {
     ensure_font()?;
     let bytes = crate::plot::png_via_scratch(|file| {
-        draw(file).map_err(|e| CliError::Data(format!("cannot draw {}: {e}", crate::error::shown_path(path))))
+        draw(file).map_err(|e| AppError::Data(format!("cannot draw {}: {e}", crate::error::shown_path(path))))
     })?;
     out.add(path, &bytes)
 }
@@ -340,7 +350,7 @@ fn range(values: impl Iterator<Item = f64>) -> (f64, f64) {
 /// Measured vs simulated before (and after) for one experiment: per channel
 /// a panel of the traces and a panel of the residuals (simulated − measured)
 /// with the ±σ noise band.
-fn fit_figure(out: &mut Transaction, path: &Path, before: &Trace, after: Option<&Trace>) -> Result<(), CliError> {
+fn fit_figure(out: &mut Transaction, path: &Path, before: &Trace, after: Option<&Trace>) -> Result<(), AppError> {
     let n = before.signals.len().max(1);
     let size = (1200u32, 60 + 2 * 230 * n as u32);
     png(out, path, |file| {
@@ -433,7 +443,7 @@ fn fit_figure(out: &mut Transaction, path: &Path, before: &Trace, after: Option<
 }
 
 /// Normalised RMSE per phase and channel, before and after (log scale).
-fn phase_figure(out: &mut Transaction, path: &Path, before: &ModelSummary, after: Option<&ModelSummary>) -> Result<(), CliError> {
+fn phase_figure(out: &mut Transaction, path: &Path, before: &ModelSummary, after: Option<&ModelSummary>) -> Result<(), AppError> {
     let channels: Vec<String> = before.diagnosis.channels.keys().cloned().collect();
     let n = channels.len().max(1);
     let size = (1200u32, 60 + 280 * n as u32);
@@ -606,9 +616,9 @@ pub fn write_report(
     manifest_path: &Path,
     o: &Outcome,
     json: &str,
-) -> Result<Vec<PathBuf>, CliError> {
+) -> Result<Vec<PathBuf>, AppError> {
     let created = !out.exists();
-    std::fs::create_dir_all(out).map_err(|e| CliError::io(out, e))?;
+    std::fs::create_dir_all(out).map_err(|e| AppError::io(out, e))?;
     let inputs: Vec<&Path> = inputs.iter().map(|p| p.as_path()).collect();
     let mut tx = Transaction::new(&inputs);
     let result = stage_report(&mut tx, out, model_path, manifest_path, o, json).and_then(|written| tx.commit().map(|()| written));
@@ -637,7 +647,7 @@ fn stage_report(
     manifest_path: &Path,
     o: &Outcome,
     json: &str,
-) -> Result<Vec<PathBuf>, CliError> {
+) -> Result<Vec<PathBuf>, AppError> {
     let s = &o.summary;
     let mut written = Vec::new();
     let mut used: Vec<String> = REPORT_FILES.iter().map(|n| n.to_string()).collect();
