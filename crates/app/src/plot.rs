@@ -911,9 +911,7 @@ mod tests {
             balance: Default::default(),
             t_final: 1.0,
             stats: Default::default(),
-            rhs_evaluations: 0,
-            linear_algebra: "dense",
-            evaluations_per_jacobian: 0,
+            ..Default::default()
         }
     }
 

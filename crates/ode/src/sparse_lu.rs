@@ -259,7 +259,7 @@ impl SparseLu {
                     }
                 }
             }
-            if best == NONE || !(best_abs > 0.0) || !best_abs.is_finite() {
+            if best == NONE || best_abs <= 0.0 || !best_abs.is_finite() {
                 return Err(Singular);
             }
             let pivot_row = if diag_abs >= DIAGONAL_PREFERENCE * best_abs { k } else { best };

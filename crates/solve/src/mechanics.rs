@@ -84,6 +84,20 @@ pub fn acceleration(mode: Mode, f: &NodeForces, v: f64, mass: f64) -> f64 {
     }
 }
 
+/// Partial derivatives of [`acceleration`] with respect to (applied,
+/// sliding, breakaway, viscous, v): the mode is fixed between events, so the
+/// acceleration is smooth in each.
+pub fn acceleration_partials(mode: Mode, f: &NodeForces, v: f64, mass: f64) -> [f64; 5] {
+    match mode {
+        Mode::Sliding { dir } if dir * v < 0.0 => {
+            // (F − dir (F_sl − c|v|) − c v)/m, |v| = −dir v here
+            [1.0 / mass, -dir / mass, 0.0, (dir * v.abs() - v) / mass, (-dir * dir * f.viscous - f.viscous) / mass]
+        }
+        Mode::Sliding { dir } => [1.0 / mass, -dir / mass, 0.0, 0.0, 0.0],
+        Mode::Held { .. } => [0.0; 5],
+    }
+}
+
 /// Number of root functions per node.
 pub const N_ROOTS: usize = 2;
 
