@@ -51,3 +51,17 @@ $P plot "$W/cush.csv" --signals cyl.piston.v,cyl.rod.p -o $F/cushioning.png --ti
 $P simulate models/position_control.json --out "$W/servo.csv"
 $P plot "$W/servo.csv" --signals setpoint.command,sensor.x -o $F/position_control.png --title "Servo-pneumatic position control: setpoint and position"
 echo "figures written to $F"
+
+# Circuit diagrams (docs/draw.md) and the symbol sheet.
+for m in meter_out meter_in mid_stop_5_3 sequence_ab position_control; do
+  $P draw models/$m.json --out $F/diagram_$m.png --scale 1.5
+done
+$P draw models/meter_out.json --out $F/diagram_meter_out.svg
+cargo run --release -q -p pneumo-draw --example render -- "$W" --catalogue
+cp "$W/symbols.png" $F/draw_symbols.png
+
+# The report page in headless Chromium (docs/report.md, README); needs
+# scripts/install-browser.
+if command -v chromium >/dev/null; then
+  PNEUMO_SCREENSHOT_DIR="$PWD/$F" scripts/browser-test
+fi

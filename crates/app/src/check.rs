@@ -120,6 +120,34 @@ pub fn block_listing() -> String {
             s.push('\n');
         }
     }
+    s.push_str(&built_in_listing());
+    s
+}
+
+/// The built-in sub-circuits (`"type": "cylinder"`): ports and parameters with defaults.
+fn built_in_listing() -> String {
+    let mut s = String::from("== Built-in components (sub-circuits, \"type\": NAME from any netlist) ==\n\n");
+    for entry in graph::library::ENTRIES {
+        let Ok(n) = graph::library::netlist(entry) else { continue };
+        let doc = n.description.as_deref().unwrap_or("");
+        let _ = writeln!(s, "{} — {doc}", entry.name);
+        if let Some(interface) = &n.interface {
+            let _ = writeln!(s, "  ports: {}", interface.ports.keys().map(String::as_str).collect::<Vec<_>>().join(", "));
+            if !interface.params.is_empty() {
+                let _ = writeln!(s, "  initial values: {}", interface.params.keys().map(String::as_str).collect::<Vec<_>>().join(", "));
+            }
+        }
+        let _ = writeln!(s, "  parameters:");
+        for (name, decl) in &n.parameters {
+            let value = match decl.value() {
+                graph::netlist::Value::Number(x) => x.to_string(),
+                graph::netlist::Value::Text(t) => t.clone(),
+                graph::netlist::Value::List(_) => "(list)".into(),
+            };
+            let _ = writeln!(s, "    {name:<20} default {value:<16} {}", decl.description().unwrap_or(""));
+        }
+        s.push('\n');
+    }
     s
 }
 

@@ -93,33 +93,35 @@ fn thermal_option(a: &ConductanceOptions) -> Result<ThermalOption, AppError> {
     if matches!(text.trim(), "inf" | "infinity" | "∞") {
         return Ok(ThermalOption::Adiabatic);
     }
-    let tau = units::parse_quantity(text, dim::TIME).map_err(|e| AppError::Usage(format!("--tau-thermal \"{text}\": {e}")))?;
+    let shown = units::show::text(text);
+    let tau = units::parse_quantity(text, dim::TIME).map_err(|e| AppError::Usage(format!("--tau-thermal \"{shown}\": {e}")))?;
     if tau == 0.0 {
         Ok(ThermalOption::Isothermal)
     } else if tau > 0.0 {
         Ok(ThermalOption::Given(tau))
     } else {
-        Err(AppError::Usage(format!("--tau-thermal \"{text}\": must be >= 0 s (or \"inf\")")))
+        Err(AppError::Usage(format!("--tau-thermal \"{shown}\": the thermal time constant must be >= 0 s (or \"inf\")")))
     }
 }
 
 /// Estimate C and b from the discharge test of `a`.
 pub fn conductance(a: &ConductanceOptions) -> Result<ConductanceReport, AppError> {
-    let quantity =
-        |text: &str, d, what: &str| units::parse_quantity(text, d).map_err(|e| AppError::Usage(format!("--{what} \"{text}\": {e}")));
+    let quantity = |text: &str, d, what: &str| {
+        units::parse_quantity(text, d).map_err(|e| AppError::Usage(format!("--{what} \"{}\": {e}", units::show::text(text))))
+    };
     let volume = quantity(&a.volume, dim::VOLUME, "volume")?;
     if volume.is_nan() || volume <= 0.0 {
-        return Err(AppError::Usage(format!("--volume \"{}\": must be > 0", a.volume)));
+        return Err(AppError::Usage(format!("--volume \"{}\": the volume must be positive (e.g. \"1 L\")", units::show::text(&a.volume))));
     }
     if let Some(b) = a.b_window {
         if !(b > 0.0 && b < 1.0) {
-            return Err(AppError::Usage(format!("--b-window must be in (0, 1), got {b}")));
+            return Err(AppError::Usage(format!("--b-window must be in (0, 1), got {}", units::show::num(b))));
         }
     }
     let thermal = thermal_option(a)?;
     let given_p_atm = a.p_atm.as_deref().map(|text| quantity(text, dim::PRESSURE, "p-atm")).transpose()?;
     if given_p_atm.is_some_and(|p| p.is_nan() || p <= 0.0) {
-        return Err(AppError::Usage("--p-atm must be > 0".into()));
+        return Err(AppError::Usage("--p-atm: the atmospheric pressure must be positive (absolute, e.g. \"1.013 bar\")".into()));
     }
     let given_t0 = a.t0.as_deref().map(|text| quantity(text, dim::TEMPERATURE, "T0")).transpose()?;
     let data = read_discharge_csv(&a.data)?;
@@ -129,8 +131,8 @@ pub fn conductance(a: &ConductanceOptions) -> Result<ConductanceReport, AppError
             if !(150.0..=600.0).contains(&t[0]) {
                 return Err(AppError::Data(format!(
                     "{}: first T sample {} K is not a plausible absolute gas temperature (the T column must be in K; or give --T0)",
-                    a.data.display(),
-                    t[0]
+                    crate::error::shown_path(&a.data),
+                    units::show::num(t[0])
                 )));
             }
             t[0]
@@ -138,7 +140,7 @@ pub fn conductance(a: &ConductanceOptions) -> Result<ConductanceReport, AppError
         (None, None) => 293.15,
     };
     if t0.is_nan() || t0 <= 0.0 {
-        return Err(AppError::Usage(format!("--T0 must be > 0 K, got {t0}")));
+        return Err(AppError::Usage(format!("--T0 must be > 0 K, got {}", units::show::num(t0))));
     }
     // p_atm: given, or fitted from a start the trace does not end below
     let p_atm = given_p_atm.unwrap_or_else(|| p_atm_start(&data));
@@ -151,7 +153,7 @@ pub fn conductance(a: &ConductanceOptions) -> Result<ConductanceReport, AppError
         ..AnalysisOptions::default()
     };
     let p_atm_source = if given_p_atm.is_some() { "given" } else { "fitted" };
-    let report = analyse(&data, &setup, &opts).map_err(|e| AppError::Data(format!("{}: {e}", a.data.display())))?;
+    let report = analyse(&data, &setup, &opts).map_err(|e| AppError::Data(format!("{}: {e}", crate::error::shown_path(&a.data))))?;
     let warnings = report.warnings.iter().map(|w| format!("{}: {w}", a.data.display())).collect();
     let text = if a.json {
         let mut value = serde_json::to_value(&report).map_err(|e| AppError::Data(e.to_string()))?;
@@ -167,8 +169,8 @@ pub fn conductance(a: &ConductanceOptions) -> Result<ConductanceReport, AppError
 
 /// Read the discharge CSV; every error names the file and line.
 pub fn read_discharge_csv(path: &Path) -> Result<DischargeData, AppError> {
-    let text = std::fs::read_to_string(path).map_err(|e| AppError::io(path, e))?;
-    parse_discharge_csv(&text, &path.display().to_string())
+    let text = crate::load::read_input_text(path, "data").map_err(|e| AppError::io(path, e))?;
+    parse_discharge_csv(&text, &crate::error::shown_path(path))
 }
 
 fn parse_discharge_csv(text: &str, origin: &str) -> Result<DischargeData, AppError> {
@@ -186,9 +188,11 @@ fn parse_discharge_csv(text: &str, origin: &str) -> Result<DischargeData, AppErr
             .enumerate()
             .map(|(i, v)| match v {
                 None => Err(AppError::Data(format!("{origin}:{}: column \"{name}\": the sample is missing", at(i)))),
-                Some(v) if *v <= 0.0 => {
-                    Err(AppError::Data(format!("{origin}:{}: {name} = {v} {unit}: absolute values must be > 0 (SI units: {unit})", at(i))))
-                }
+                Some(v) if *v <= 0.0 => Err(AppError::Data(format!(
+                    "{origin}:{}: {name} = {} {unit}: absolute values must be > 0 (SI units: {unit})",
+                    at(i),
+                    units::show::num(*v)
+                ))),
                 Some(v) => Ok(*v),
             })
             .collect()

@@ -69,8 +69,7 @@ pub struct Experiments {
 /// Read the manifest at `manifest_path` and its data files (which must lie
 /// in its folder or below) and resolve them against the model `flat`.
 pub fn read_experiments(flat: &graph::FlatNetlist, manifest_path: &Path) -> Result<Experiments, AppError> {
-    let text =
-        crate::load::read_text(manifest_path, crate::load::MAX_NETLIST_BYTES, "manifest").map_err(|e| AppError::io(manifest_path, e))?;
+    let text = crate::load::read_input_text(manifest_path, "manifest").map_err(|e| AppError::io(manifest_path, e))?;
     let manifest = identify::manifest::parse(&text, &manifest_path.display().to_string()).map_err(|e| AppError::Data(e.to_string()))?;
     let dir = manifest_path.parent().map(Path::to_path_buf).unwrap_or_default();
     let data_files = std::cell::RefCell::new(Vec::new());
@@ -92,7 +91,7 @@ pub fn read_experiments(flat: &graph::FlatNetlist, manifest_path: &Path) -> Resu
             Ok(_) => {}
         }
         data_files.borrow_mut().push(path.clone());
-        crate::load::read_text(&path, crate::load::MAX_DATA_BYTES, "data")
+        crate::load::read_input_text(&path, "data")
             .map(|t| (t, path.display().to_string()))
             .map_err(|e| format!("{}: {e}", crate::error::shown_path(&path)))
     };
@@ -794,6 +793,13 @@ mod tests {
             gain_ci95: None,
             time_skew: 4e-4,
             time_skew_ci95: Some((3e-4, 5e-4)),
+            offset_prior_sd: f64::INFINITY,
+            gain_prior_sd: 0.0,
+            prior_source: String::new(),
+            offset_z: 0.0,
+            gain_z: 0.0,
+            skew_z: 0.0,
+            symptom: None,
         };
         assert_eq!(sensor_row(&x), "| 4bar | head.p | 10 mbar [9 mbar, 11 mbar] | 0 % | 0.4 ms [0.3 ms, 0.5 ms] |\n");
     }

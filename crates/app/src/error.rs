@@ -22,7 +22,7 @@ pub enum AppError {
 /// A message as one line: control characters (newlines, terminal escapes)
 /// from any input it quotes are shown escaped.
 pub fn one_line(message: &str) -> String {
-    message.chars().map(|c| if c.is_control() { format!("\\u{{{:x}}}", c as u32) } else { c.to_string() }).collect()
+    units::show::line(message)
 }
 
 /// A path for a one-line message: control characters escaped.
@@ -44,13 +44,22 @@ impl AppError {
     }
 
     pub fn io(path: &std::path::Path, e: impl std::fmt::Display) -> Self {
-        AppError::Io { path: shown_path(path), message: graph::escape(&e.to_string()) }
+        AppError::Io { path: shown_path(path), message: units::show::line(&e.to_string()) }
     }
 }
 
 impl From<graph::GraphError> for AppError {
     fn from(e: graph::GraphError) -> Self {
         AppError::Graph(Box::new(e))
+    }
+}
+
+impl From<draw::DrawError> for AppError {
+    fn from(e: draw::DrawError) -> Self {
+        match e {
+            draw::DrawError::Graph(g) => AppError::Graph(g),
+            other => AppError::Data(other.to_string()),
+        }
     }
 }
 

@@ -4,7 +4,8 @@
 //! overrides ([`load`]), one run with its budgets and rest state ([`run`]),
 //! outputs written as one transaction and the summary JSON ([`output`]),
 //! and one module per use case: [`check`], [`simulate`], [`sweep`] (and
-//! merge), [`plot`], [`conductance`], [`discrepancy`]. Use cases take plain
+//! merge), [`plot`], [`conductance`], [`discrepancy`], [`linearize`], [`draw`], [`report`],
+//! [`fmu`] (export as an FMI 2.0 Co-Simulation FMU). Use cases take plain
 //! option structs and return values or text; a front end parses its own
 //! arguments, prints, and maps [`AppError`] to its exit status or exception.
 //!
@@ -14,10 +15,14 @@
 pub mod check;
 pub mod conductance;
 pub mod discrepancy;
+pub mod draw;
 pub mod error;
+pub mod fmu;
+pub mod linearize;
 pub mod load;
 pub mod output;
 pub mod plot;
+pub mod report;
 pub mod run;
 pub mod simulate;
 pub mod sweep;

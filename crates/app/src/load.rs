@@ -10,13 +10,6 @@ use std::cell::RefCell;
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
-/// Largest netlist file read [bytes]; a bigger one (or a device such as
-/// /dev/zero) is refused before it is read.
-pub const MAX_NETLIST_BYTES: u64 = 16 << 20;
-
-/// Largest measured-data file read [bytes] (about 10⁷ samples of a few channels).
-pub const MAX_DATA_BYTES: u64 = 1 << 30;
-
 /// Default of `--max-memory` [MiB].
 pub const DEFAULT_MAX_MEMORY_MIB: u64 = 1024;
 
@@ -51,28 +44,107 @@ pub struct FsLoader {
 impl Loader for FsLoader {
     fn read(&self, path: &Path) -> Result<String, String> {
         self.read.borrow_mut().push(path.to_path_buf());
-        read_text(path, MAX_NETLIST_BYTES, "netlist")
+        read_input_text(path, "netlist")
     }
     fn max_components(&self) -> usize {
         limits().max_components
     }
 }
 
-/// Read a text file of at most `limit` bytes; `what` names it in the message.
-pub fn read_text(path: &Path, limit: u64, what: &str) -> Result<String, String> {
+/// Largest input file [bytes]: a quarter of `--max-memory`, because
+/// parsing a file takes a few times its size (JSON values, columns of
+/// numbers) beside the text itself.
+pub fn max_input_bytes() -> u64 {
+    limits().max_memory_mib.saturating_mul(1 << 20) / 4
+}
+
+/// Why `meta` is not a file pneumo reads: a directory, a device (such as
+/// /dev/zero, which never ends), a named pipe or a socket.
+fn not_a_regular_file(meta: &std::fs::Metadata, what: &str) -> Option<String> {
+    let ft = meta.file_type();
+    if ft.is_file() {
+        return None;
+    }
+    if ft.is_dir() {
+        return Some(format!("is a directory, not a {what} file"));
+    }
+    let kind = special_kind(&ft);
+    Some(format!("is {kind}, not a {what} file (pneumo reads regular files only; copy it to a file first)"))
+}
+
+#[cfg(unix)]
+fn special_kind(ft: &std::fs::FileType) -> &'static str {
+    use std::os::unix::fs::FileTypeExt;
+    if ft.is_char_device() {
+        "a character device"
+    } else if ft.is_block_device() {
+        "a block device"
+    } else if ft.is_fifo() {
+        "a named pipe (FIFO)"
+    } else if ft.is_socket() {
+        "a socket"
+    } else {
+        "a special file"
+    }
+}
+
+#[cfg(not(unix))]
+fn special_kind(_: &std::fs::FileType) -> &'static str {
+    "a special file"
+}
+
+/// Size in MiB for a message.
+fn mib(bytes: u64) -> String {
+    units::show::fixed(bytes as f64 / 1048576.0, 1)
+}
+
+/// Read an input file — a netlist, a sub-circuit, a manifest, measured
+/// data, results to plot or merge; `what` names it in messages. The one
+/// reader of the user's files: anything but a regular file is refused by
+/// its kind before it is opened (a FIFO would block, /dev/zero never ends),
+/// and a file larger than [`max_input_bytes`] before it is read, with the
+/// setting that raises the limit.
+pub fn read_input(path: &Path, what: &str) -> Result<Vec<u8>, String> {
     use std::io::Read;
-    let file = std::fs::File::open(path).map_err(|e| e.to_string())?;
-    let meta = file.metadata().map_err(|e| e.to_string())?;
-    if meta.is_dir() {
-        return Err("is a directory".into());
-    }
-    let mut bytes = Vec::new();
-    // read one byte more than allowed to see whether there is more (devices report no size)
-    file.take(limit + 1).read_to_end(&mut bytes).map_err(|e| e.to_string())?;
+    let io = |e: std::io::Error| units::show::text(&e.to_string());
+    let check = |meta: &std::fs::Metadata| -> Result<u64, String> {
+        if let Some(why) = not_a_regular_file(meta, what) {
+            return Err(why);
+        }
+        let limit = max_input_bytes();
+        if meta.len() > limit {
+            return Err(format!(
+                "is {} MiB, more than the {} MiB a {what} file may have with --max-memory {} MiB (input files get a quarter of it): raise --max-memory",
+                mib(meta.len()),
+                mib(limit),
+                limits().max_memory_mib
+            ));
+        }
+        Ok(limit)
+    };
+    // the path's type first: opening a FIFO would wait for a writer
+    check(&std::fs::metadata(path).map_err(io)?)?;
+    let file = std::fs::File::open(path).map_err(io)?;
+    // again on what was opened, in case the path changed in between
+    let meta = file.metadata().map_err(io)?;
+    let limit = check(&meta)?;
+    let mut bytes = Vec::with_capacity(usize::try_from(meta.len()).unwrap_or(0));
+    // a file that grows while it is read stops at the limit
+    file.take(limit + 1).read_to_end(&mut bytes).map_err(io)?;
     if bytes.len() as u64 > limit {
-        return Err(format!("is larger than {} MiB, the limit for a {what} file", limit >> 20));
+        return Err(format!(
+            "grew beyond {} MiB while it was read (the limit for a {what} file with --max-memory {} MiB): raise --max-memory",
+            mib(limit),
+            limits().max_memory_mib
+        ));
     }
-    String::from_utf8(bytes).map_err(|e| format!("is not UTF-8 text (invalid byte at offset {})", e.utf8_error().valid_up_to()))
+    Ok(bytes)
+}
+
+/// [`read_input`] for a text file: UTF-8 required.
+pub fn read_input_text(path: &Path, what: &str) -> Result<String, String> {
+    String::from_utf8(read_input(path, what)?)
+        .map_err(|e| format!("is not UTF-8 text (invalid byte at offset {})", e.utf8_error().valid_up_to()))
 }
 
 /// Load a netlist, expand subsystems, apply `--set` overrides; also return
@@ -107,7 +179,7 @@ impl Loader for SourceLoader {
     fn read(&self, path: &Path) -> Result<String, String> {
         let text = match self.preset.get(path) {
             Some(text) => text.clone(),
-            None if self.file_system => read_text(path, MAX_NETLIST_BYTES, "netlist")?,
+            None if self.file_system => read_input_text(path, "netlist")?,
             None => return Err("is not one of the model's files".into()),
         };
         let mut served = self.served.borrow_mut();
@@ -172,8 +244,16 @@ mod tests {
 
     #[test]
     fn a_source_loads_again_without_the_file_system_and_hashes_its_files() {
-        let path = models().join("meter_out_subsystem.json");
+        // the meter-out circuit with its cylinder read from a file next to it, not the built-in
+        let dir = std::env::temp_dir().join(format!("pneumo-load-{}", std::process::id()));
+        std::fs::create_dir_all(dir.join("lib")).unwrap();
+        std::fs::copy(models().join("lib/cylinder.json"), dir.join("lib/cylinder.json")).unwrap();
+        let parent = std::fs::read_to_string(models().join("meter_out_subsystem.json")).unwrap();
+        let parent = parent.replace(r#""type": "cylinder""#, r#""type": "subsystem", "file": "lib/cylinder.json""#);
+        let path = dir.join("meter_out_subsystem.json");
+        std::fs::write(&path, parent).unwrap();
         let (flat, source) = Source::read(&path).unwrap();
+        std::fs::remove_dir_all(&dir).unwrap();
         assert!(source.files.len() >= 2, "the subsystem file is held too: {:?}", source.files.iter().map(|f| &f.0).collect::<Vec<_>>());
         assert_eq!(source.files[0].0, path);
         assert_eq!(source.load().unwrap(), flat);

@@ -16,7 +16,9 @@
 //! Data are SI f64 (Pa, K, m, m/s, kg/s, s). Undefined samples (`None`, an
 //! empty CSV cell, or a non-finite number) break the drawn line. Signals are
 //! grouped by physical quantity into at most [`MAX_PANELS`] stacked panels
-//! (pressure, temperature, position/velocity first); signals that do not fit
+//! (pressure, temperature, position, velocity first: each quantity on its own
+//! axis, so a 0.45 m stroke is not squashed under ±4 m/s velocity spikes;
+//! pressures are absolute, labelled "bar (abs)"); signals that do not fit
 //! are named in a note under the picture rather than silently dropped.
 //!
 //! Output is PNG or SVG, chosen by the file extension. Text is drawn with the
@@ -37,7 +39,7 @@ use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::OnceLock;
 
 /// At most this many stacked panels in one picture.
-pub const MAX_PANELS: usize = 3;
+pub const MAX_PANELS: usize = 4;
 
 const FONT_FAMILY: &str = "sans-serif";
 static FONT: &[u8] = include_bytes!("../../../assets/fonts/DejaVuSans.ttf");
@@ -192,13 +194,13 @@ struct Figure {
 
 /// How a quantity is grouped and shown.
 #[derive(Debug, Clone)]
-struct Quantity {
+pub(crate) struct Quantity {
     /// Panel key: quantities with the same group share a panel.
     group: String,
     /// Axis words, e.g. "pressure".
     name: String,
     /// Display unit, e.g. "bar" ("-" for dimensionless).
-    display: String,
+    pub(crate) display: String,
     /// Conversion from SI to the display unit (None = identity).
     unit: Option<units::Unit>,
 }
@@ -216,24 +218,26 @@ impl Quantity {
             },
         }
     }
-    fn show(&self, si: f64) -> f64 {
+    pub(crate) fn show(&self, si: f64) -> f64 {
         match self.unit {
             Some(u) => u.in_unit(si),
             None => si,
         }
     }
-    fn axis(&self) -> String {
-        format!("{} [{}]", self.name, self.display)
+    pub(crate) fn axis(&self) -> String {
+        // pressures inside are absolute (docs/netlist.md); say so where a gauge reading is common
+        let display = if self.display == "bar" { "bar (abs)" } else { &self.display };
+        format!("{} [{display}]", self.name)
     }
 }
 
 /// Grouping and display of a signal by its SI unit string (as in `SimResult::units`).
-fn quantity_of_unit(si: &str) -> Quantity {
+pub(crate) fn quantity_of_unit(si: &str) -> Quantity {
     match si {
         "Pa" => Quantity::new("pressure", "pressure", si, "bar"),
         "K" => Quantity::new("temperature", "temperature", si, "K"),
-        "m" => Quantity::new("motion", "position", si, "m"),
-        "m/s" => Quantity::new("motion", "velocity", si, "m/s"),
+        "m" => Quantity::new("position", "position", si, "mm"),
+        "m/s" => Quantity::new("velocity", "velocity", si, "m/s"),
         "m/s2" => Quantity::new("acceleration", "acceleration", si, "m/s2"),
         "kg/s" => Quantity::new("mass flow", "mass flow", si, "kg/s"),
         "N" => Quantity::new("force", "force", si, "N"),
@@ -279,8 +283,9 @@ fn group_rank(group: &str) -> usize {
     match group {
         "pressure" => 0,
         "temperature" => 1,
-        "motion" => 2,
-        _ => 3,
+        "position" => 2,
+        "velocity" => 3,
+        _ => 4,
     }
 }
 
@@ -345,7 +350,7 @@ struct Table {
 }
 
 fn read_table(path: &Path) -> Result<Table, AppError> {
-    let text = std::fs::read(path).map_err(|e| AppError::io(path, e))?;
+    let text = crate::load::read_input(path, "result").map_err(|e| AppError::io(path, e))?;
     let mut reader = csv::ReaderBuilder::new().has_headers(true).trim(csv::Trim::All).from_reader(text.as_slice());
     let csv_error = |e: csv::Error| match e.position() {
         Some(pos) => AppError::Data(format!("{}: line {}: {}", path.display(), pos.line(), csv_message(&e))),
@@ -892,6 +897,7 @@ mod tests {
                     Some(292.0 - 40.0 * t),
                     Some(0.45 * t),
                     if (0.3..0.5).contains(&t) { None } else { Some(1.0 + 0.4 * t) },
+                    Some(0.45),
                 ]
             })
             .collect();
@@ -902,8 +908,8 @@ mod tests {
             cycle_statistics: Vec::new(),
             run_statistics: Vec::new(),
             cycle_controllers: Vec::new(),
-            columns: vec!["head.p".into(), "rod.p".into(), "head.T".into(), "piston.x".into(), "head.n".into()],
-            units: vec!["Pa".into(), "Pa".into(), "K".into(), "m".into(), "1".into()],
+            columns: vec!["head.p".into(), "rod.p".into(), "head.T".into(), "piston.x".into(), "head.n".into(), "piston.v".into()],
+            units: vec!["Pa".into(), "Pa".into(), "K".into(), "m".into(), "1".into(), "m/s".into()],
             times,
             rows,
             cycles: Vec::new(),
@@ -940,12 +946,13 @@ mod tests {
         let bytes = traces_image(&r, &[0, 1, 2, 3], Path::new("fig.SVG")).expect("svg");
         let svg = String::from_utf8(bytes).expect("utf8");
         assert!(svg.starts_with("<svg"), "{}", &svg[..40.min(svg.len())]);
-        for name in ["head.p", "rod.p", "head.T", "piston.x", "pressure [bar]", "temperature [K]", "time [s]"] {
+        for name in ["head.p", "rod.p", "head.T", "piston.x", "pressure [bar (abs)]", "temperature [K]", "position [mm]", "time [s]"] {
             assert!(svg.contains(name), "SVG lacks {name}");
         }
-        // dimensionless head.n would be a 4th panel: not drawn but named in the note
-        let with_n = String::from_utf8(traces_image(&r, &[0, 2, 3, 4], Path::new("f.svg")).expect("svg")).expect("utf8");
-        assert!(with_n.contains("not shown (at most 3 panels): head.n"));
+        // position and velocity on separate axes; dimensionless head.n would be a 5th panel: not drawn but named in the note
+        let with_n = String::from_utf8(traces_image(&r, &[0, 2, 3, 5, 4], Path::new("f.svg")).expect("svg")).expect("utf8");
+        assert!(with_n.contains("velocity [m/s]") && with_n.contains("position [mm]"));
+        assert!(with_n.contains("not shown (at most 4 panels): head.n"));
     }
 
     #[test]
@@ -962,7 +969,8 @@ mod tests {
         assert!(dropped.is_empty());
         let labels: Vec<Vec<&str>> = panels.iter().map(|p| p.traces.iter().map(|t| t.label.as_str()).collect()).collect();
         assert_eq!(labels, vec![vec!["head.p", "rod.p"], vec!["head.T"], vec!["piston.x"]]);
-        assert_eq!(panels[0].y_desc, "pressure [bar]");
+        assert_eq!(panels[0].y_desc, "pressure [bar (abs)]");
+        assert_eq!(panels[2].y_desc, "position [mm]");
         let q = quantity_of_unit("Pa");
         assert!((q.show(4e5) - 4.0).abs() < 1e-12);
         let m = quantity_of_unit("m/s");
@@ -1018,7 +1026,7 @@ mod tests {
         assert_eq!(t[0].label, "slow");
         assert_eq!(t[1].label, "fast");
         assert_eq!(t[0].points, vec![(0.0, Some(4.0)), (1.0, None), (2.0, Some(5.0))]);
-        assert_eq!(fig.panels[0].y_desc, "pressure [bar]");
+        assert_eq!(fig.panels[0].y_desc, "pressure [bar (abs)]");
     }
 
     #[test]

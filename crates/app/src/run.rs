@@ -40,6 +40,9 @@ pub struct Prepared {
 
 /// Apply overrides, build the circuit and settle the run settings.
 pub fn prepare(mut flat: FlatNetlist, spec: &RunSpec) -> Result<Prepared, AppError> {
+    if spec.cycles == Some(0) {
+        return Err(AppError::Usage("--cycles must be at least 1: zero cycles is not a run (give --t-end to run for a time)".into()));
+    }
     for s in &spec.sets {
         graph::apply_set(&mut flat, s)?;
     }
@@ -54,7 +57,7 @@ pub fn prepare(mut flat: FlatNetlist, spec: &RunSpec) -> Result<Prepared, AppErr
     }
     if let Some(t) = spec.t_end {
         if !(t > 0.0 && t.is_finite()) {
-            return Err(AppError::Usage(format!("--t-end must be > 0 s, got {t}")));
+            return Err(AppError::Usage(format!("--t-end must be > 0 s, got {}", units::show::num(t))));
         }
         opts.t_end = t;
         // an explicit end time without --cycles runs to that time

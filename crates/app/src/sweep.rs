@@ -10,7 +10,8 @@
 //!   order on the command line, case `i` (0-based) is the odometer reading of
 //!   `i` with the LAST axis turning fastest: i = ((iA·nB + iB)·nC + iC)...
 //!   `--shard K/N` (1-based K) keeps the cases with `i mod N = K-1`.
-//! - Determinism. Cases run on a local rayon pool of `--jobs` threads, but the
+//! - Determinism. Cases run on a local rayon pool of at most `--jobs` threads
+//!   (never more than the cases, nor than a few per core: [`worker_threads`]), but the
 //!   results are collected in case order and formatted without any
 //!   thread-dependent state, so the output file is byte-identical for any
 //!   `--jobs`, and merged shards are byte-identical to the unsharded file.
@@ -627,10 +628,11 @@ impl Plan {
         if jobs == 0 {
             return Err(AppError::Usage("--jobs must be at least 1".into()));
         }
+        let threads = worker_threads(jobs, indices.len());
         let pool = rayon::ThreadPoolBuilder::new()
-            .num_threads(jobs)
+            .num_threads(threads)
             .build()
-            .map_err(|e| AppError::Data(format!("cannot start {jobs} worker threads: {e}")))?;
+            .map_err(|e| AppError::Data(format!("cannot start {threads} worker threads: {e}")))?;
         Ok(pool.install(|| {
             indices
                 .par_iter()
@@ -721,6 +723,18 @@ impl Plan {
         }
         s
     }
+}
+
+/// Worker threads per available core at most: cases are CPU-bound, so more
+/// threads only add memory (each holds a model and its traces).
+pub const MAX_THREADS_PER_CORE: usize = 4;
+
+/// Threads of the pool that runs `cases` cases when `jobs` are asked for:
+/// `jobs` is an upper bound, like make's and cargo's `-j` — never more
+/// threads than cases, nor than [`MAX_THREADS_PER_CORE`] per available core.
+pub fn worker_threads(jobs: usize, cases: usize) -> usize {
+    let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
+    jobs.min(cases).min(MAX_THREADS_PER_CORE.saturating_mul(cores)).max(1)
 }
 
 /// A sweep ready to run (`pneumo sweep`): its options checked, the netlist
@@ -941,7 +955,7 @@ pub fn merge(o: &MergeOptions) -> Result<usize, AppError> {
     outputs.check_targets(&[&o.out])?;
     let mut tables = Vec::with_capacity(o.inputs.len());
     for path in &o.inputs {
-        let text = std::fs::read_to_string(path).map_err(|e| AppError::io(path, e))?;
+        let text = crate::load::read_input_text(path, "sweep result").map_err(|e| AppError::io(path, e))?;
         let t = if is_json(path) { read_json(path, &text)? } else { read_csv(path, &text)? };
         if t.header.len() < 2 || t.header[0] != "case" || t.header[1] != "n_cases" {
             return Err(AppError::io(path, "the first columns are not \"case,n_cases\" (not written by pneumo sweep?)"));
@@ -1166,6 +1180,15 @@ mod tests {
             texts: (0..n).map(|i| i.to_string()).collect(),
             values: (0..n).map(|i| Cell::Num(i as f64)).collect(),
         }
+    }
+
+    #[test]
+    fn jobs_100000_with_one_case_starts_one_worker() {
+        assert_eq!(worker_threads(100_000, 1), 1);
+        assert_eq!(worker_threads(usize::MAX, 0), 1);
+        let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
+        assert_eq!(worker_threads(100_000, 1_000_000), MAX_THREADS_PER_CORE * cores);
+        assert_eq!(worker_threads(2, 1_000_000), 2.min(MAX_THREADS_PER_CORE * cores));
     }
 
     #[test]

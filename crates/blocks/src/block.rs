@@ -355,10 +355,18 @@ pub struct FreeInitial {
 /// input counts as being on the node of the block that drives it).
 #[derive(Debug, Clone, PartialEq)]
 pub enum Fact {
-    /// Stroke of the actuator [m] (piston travel, rod-side gas column).
+    /// Stroke of the actuator [m], stated by a block's parameter `stroke`
+    /// (the piston's travel, a cushion's end).
     Stroke(f64),
-    /// Position [m] at which a limit switch on this mass trips (≤ stroke).
-    SwitchPosition(f64),
+    /// Position [m] at which a switch on this mass trips (≤ stroke), and
+    /// the block's parameter that sets it.
+    SwitchPosition { x: f64, param: &'static str },
+    /// A chamber's face on a piston: it pushes toward extend (`sigma` = +1,
+    /// its volume grows as x grows) or retract (−1), with its area [m²],
+    /// dead volume [m³] and gas column at x = 0 [m] (parameters
+    /// `orientation`, `dead_volume`, `length_at_zero`); `rod` when a rod
+    /// passes through it (`rod_diameter` > 0).
+    PistonFace { sigma: f64, area: f64, dead_volume: f64, length_at_zero: f64, rod: bool },
     /// Piston diameter [m].
     Bore(f64),
     /// Rod diameter [m].
@@ -645,12 +653,32 @@ impl Partials {
     }
 }
 
+/// A copy of a boxed block with its discrete state (a valve's position, a
+/// controller's phase): what lets a whole model be copied, e.g. for an FMU's
+/// `fmi2GetFMUstate`. Every `Block` that is `Clone` has it.
+pub trait BlockClone {
+    fn clone_block(&self) -> Box<dyn Block>;
+}
+
+impl<T: Block + Clone + 'static> BlockClone for T {
+    fn clone_block(&self) -> Box<dyn Block> {
+        Box::new(self.clone())
+    }
+}
+
+impl Clone for Box<dyn Block> {
+    fn clone(&self) -> Self {
+        self.clone_block()
+    }
+}
+
 /// A component of a pneumatic circuit.
 ///
 /// Every method has a do-nothing default so a block implements only the
 /// phases its ports need. Methods must be pure functions of their inputs
 /// (except `on_event`, which updates discrete state) and must not panic.
-pub trait Block: std::fmt::Debug + Send + Sync {
+/// A block is `Clone` ([`BlockClone`]): a copy carries its discrete state.
+pub trait Block: BlockClone + std::fmt::Debug + Send + Sync {
     /// The netlist type name ("chamber", "conductance", ...).
     fn type_name(&self) -> &'static str;
     /// Ports, in a fixed order.

@@ -361,9 +361,16 @@ impl Block for Chamber {
                 f.push((1, Fact::RodDiameter(rod)));
             }
         }
-        if self.sigma < 0.0 && self.length_at_zero > 0.0 {
-            f.push((1, Fact::Stroke(self.length_at_zero)));
-        }
+        f.push((
+            1,
+            Fact::PistonFace {
+                sigma: self.sigma,
+                area: self.area,
+                dead_volume: self.dead_volume,
+                length_at_zero: self.length_at_zero,
+                rod: self.diameters.is_some_and(|(_, rod)| rod > 0.0),
+            },
+        ));
         f
     }
     fn set_initial_gas(&mut self, p: f64, t: f64) {

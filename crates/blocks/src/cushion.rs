@@ -167,6 +167,14 @@ impl Block for Cushion {
     fn outputs(&self) -> &[OutputSpec] {
         OUTPUTS
     }
+    /// The stroke of the cylinder whose extend end it cushions, on the node of its position input.
+    fn facts(&self) -> Vec<(usize, Fact)> {
+        if self.towards > 0.0 {
+            vec![(2, Fact::Stroke(self.end))]
+        } else {
+            Vec::new()
+        }
+    }
     fn record(&self, ctx: &Ctx, _b: &Balances, _d: &[f64], out: &mut [Option<f64>]) {
         out[0] = Some(self.main_opening(ctx.signals[0]));
         out[1] = Some(self.flow(ctx).mdot);

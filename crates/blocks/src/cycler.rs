@@ -135,7 +135,7 @@ impl Block for Cycler {
         out[0] = 0.0;
     }
     fn facts(&self) -> Vec<(usize, Fact)> {
-        vec![(0, Fact::SwitchPosition(self.stroke - self.tolerance)), (1, Fact::CommandLevels(vec![0.0, 1.0]))]
+        vec![(0, Fact::SwitchPosition { x: self.stroke - self.tolerance, param: "stroke" }), (1, Fact::CommandLevels(vec![0.0, 1.0]))]
     }
     fn n_event_functions(&self) -> usize {
         1

@@ -15,6 +15,7 @@ pub mod external_input;
 pub mod iso6358;
 pub mod params;
 pub mod registry;
+pub mod suggest;
 pub mod support;
 
 /// Declares the block files and the list of every block type, one line per
@@ -75,8 +76,8 @@ pub enum BlockError {
     Param(#[from] ParamError),
     #[error("{0}")]
     Flow(#[from] iso6358::FlowError),
-    #[error("unknown component type \"{name}\" (known: {known})")]
-    UnknownType { name: String, known: String },
+    #[error("unknown component type \"{name}\"{hint} (known: {known})")]
+    UnknownType { name: String, hint: String, known: String },
 }
 
 impl BlockError {

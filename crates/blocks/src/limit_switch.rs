@@ -97,7 +97,7 @@ impl Block for LimitSwitch {
         out[0] = if self.state_at(ctx.mechanical[0].x) { 1.0 } else { 0.0 };
     }
     fn facts(&self) -> Vec<(usize, Fact)> {
-        vec![(0, Fact::SwitchPosition(self.position)), (1, Fact::CommandLevels(vec![0.0, 1.0]))]
+        vec![(0, Fact::SwitchPosition { x: self.position, param: "position" }), (1, Fact::CommandLevels(vec![0.0, 1.0]))]
     }
     fn n_event_functions(&self) -> usize {
         1

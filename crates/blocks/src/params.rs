@@ -21,11 +21,15 @@ pub enum RawValue {
 impl std::fmt::Display for RawValue {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         match self {
-            RawValue::Number(x) => write!(f, "{x}"),
-            RawValue::Text(s) => write!(f, "\"{s}\""),
+            // as a message shows input: numbers readable, text escaped and
+            // shortened, long lists cut (units::show)
+            RawValue::Number(x) => write!(f, "{}", units::show::num(*x)),
+            RawValue::Text(s) => write!(f, "\"{}\"", units::show::text(s)),
             RawValue::List(items) => {
-                let parts: Vec<String> = items.iter().map(|v| v.to_string()).collect();
-                write!(f, "[{}]", parts.join(", "))
+                const SHOWN: usize = 6;
+                let parts: Vec<String> = items.iter().take(SHOWN).map(|v| v.to_string()).collect();
+                let more = if items.len() > SHOWN { format!(", … ({} items)", items.len()) } else { String::new() };
+                write!(f, "[{}{more}]", parts.join(", "))
             }
         }
     }
@@ -94,7 +98,7 @@ impl Range {
                 Range::Positive => "must be > 0".into(),
                 Range::NonNegative => "must be >= 0".into(),
                 Range::OpenUnit => "must be in (0, 1)".into(),
-                Range::Closed(lo, hi) => format!("must be in [{lo}, {hi}]"),
+                Range::Closed(lo, hi) => format!("must be in [{}, {}]", units::show::num(lo), units::show::num(hi)),
                 Range::PositiveOrInfinite => "must be > 0 (or \"inf\")".into(),
                 Range::GasTemperature => format!("must lie between {TEMPERATURE_MIN} K and {TEMPERATURE_MAX} K (absolute)"),
                 Range::AbsolutePressure => format!("must be > 0 and at most {} bar (absolute)", PRESSURE_MAX / 1e5),
@@ -139,7 +143,7 @@ impl ParamSpec {
     /// Check an SI value against the parameter's range (a value set while the
     /// circuit runs, e.g. a live parameter driven by an interface input).
     pub fn check(&self, si: f64) -> Result<(), ParamError> {
-        self.range.check(si).map_err(|reason| ParamError::OutOfRange { name: self.name.into(), value: format!("{si:e}"), reason })
+        self.range.check(si).map_err(|reason| ParamError::OutOfRange { name: self.name.into(), value: units::show::num(si), reason })
     }
     /// Free text (one string or a list of strings); `required` makes it mandatory.
     pub const fn words(name: &'static str, required: bool, doc: &'static str) -> Self {
@@ -193,8 +197,8 @@ macro_rules! param_set {
 /// Why a parameter could not be accepted. The component id is added by the caller.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum ParamError {
-    #[error("unknown parameter \"{name}\" (accepted: {accepted})")]
-    Unknown { name: String, accepted: String },
+    #[error("unknown parameter \"{name}\"{hint} (accepted: {accepted})")]
+    Unknown { name: String, hint: String, accepted: String },
     #[error("missing required parameter \"{name}\" ({doc})")]
     Missing { name: String, doc: String },
     #[error("parameter \"{name}\" = {value}: {source}")]
@@ -227,6 +231,7 @@ impl Params {
         for (name, value) in raw {
             let spec = specs.iter().find(|s| s.name == name).ok_or_else(|| ParamError::Unknown {
                 name: name.to_string(),
+                hint: crate::suggest::did_you_mean(name, specs.iter().map(|s| s.name)),
                 accepted: specs.iter().map(|s| s.name).collect::<Vec<_>>().join(", "),
             })?;
             match spec.kind {

@@ -84,6 +84,7 @@ pub use crate::TYPES;
 pub fn block_type(name: &str) -> Result<&'static BlockType, BlockError> {
     TYPES.iter().find(|t| t.name == name).ok_or_else(|| BlockError::UnknownType {
         name: name.to_string(),
+        hint: crate::suggest::did_you_mean(name, TYPES.iter().map(|t| t.name)),
         known: TYPES.iter().map(|t| t.name).collect::<Vec<_>>().join(", "),
     })
 }

@@ -3,7 +3,7 @@
 //! exit statuses. Used by the binary (`src/main.rs`) and by the Python
 //! package (`python -m pneumo`), so both are the same program.
 
-use crate::args::{check, conductance, discrepancy, plot, simulate, sweep};
+use crate::args::{check, conductance, discrepancy, draw, fmu, linearize, plot, report, simulate, sweep};
 use clap::{Parser, Subcommand};
 use pneumo_app::error::one_line;
 use pneumo_app::load;
@@ -15,10 +15,11 @@ struct Cli {
     #[command(subcommand)]
     command: Command,
     /// Most components a circuit may expand to (subsystems included).
-    #[arg(long = "max-components", global = true, value_name = "N", default_value_t = graph::expand::DEFAULT_MAX_COMPONENTS)]
+    #[arg(long = "max-components", global = true, value_name = "N", default_value_t = graph::expand::DEFAULT_MAX_COMPONENTS, allow_negative_numbers = true)]
     max_components: usize,
-    /// Memory a run may plan to use [MiB] (result traces, the solver's matrices); larger runs are refused before they start.
-    #[arg(long = "max-memory", global = true, value_name = "MiB", default_value_t = load::DEFAULT_MAX_MEMORY_MIB)]
+    /// Memory a run may plan to use [MiB] (result traces, the solver's matrices; input files get a quarter of it);
+    /// larger runs and inputs are refused before they start.
+    #[arg(long = "max-memory", global = true, value_name = "MiB", default_value_t = load::DEFAULT_MAX_MEMORY_MIB, allow_negative_numbers = true)]
     max_memory: u64,
 }
 
@@ -38,6 +39,14 @@ enum Command {
     Conductance(conductance::ConductanceArgs),
     /// Find where simulation and measurement disagree, name the missing effect, add it, show the gap shrink.
     Discrepancy(discrepancy::DiscrepancyArgs),
+    /// Linear model (A, B, C, D), modes and Bode data about an operating point.
+    Linearize(linearize::LinearizeArgs),
+    /// Export a netlist with an interface as an FMI 2.0 Co-Simulation FMU (docs/fmu.md).
+    Fmu(fmu::FmuArgs),
+    /// Draw the circuit diagram (ISO 1219-1 symbols) as SVG or PNG.
+    Draw(draw::DrawArgs),
+    /// Run a netlist and write one self-contained HTML page: diagram, interactive traces, summary tables.
+    Report(report::ReportArgs),
     /// Print the JSON Schema of the netlist format.
     Schema,
     /// List the block types and their parameters.
@@ -65,6 +74,10 @@ where
         Command::Plot(a) => plot::run(a),
         Command::Conductance(a) => conductance::run(a),
         Command::Discrepancy(a) => discrepancy::run(a),
+        Command::Linearize(a) => linearize::run(a),
+        Command::Fmu(a) => fmu::run(a),
+        Command::Draw(a) => draw::run(a),
+        Command::Report(a) => report::run(a),
         Command::Schema => {
             println!("{}", serde_json::to_string_pretty(&graph::netlist::schema()).unwrap_or_default());
             Ok(())

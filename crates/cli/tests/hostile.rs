@@ -37,11 +37,28 @@ fn fails_cleanly(dir: &Scratch, args: &[&str], needles: &[&str]) -> String {
     assert_eq!(errors.len(), 1, "pneumo {args:?}: want one error line, got:\n{err}");
     assert!(errors[0].starts_with("error: "), "{err}");
     assert!(!errors[0].contains('\u{1b}'), "terminal escape echoed: {err:?}");
+    for line in err.lines() {
+        assert_readable(line);
+    }
     for n in needles {
         assert!(errors[0].contains(n), "pneumo {args:?}: message lacks {n:?}: {err}");
     }
     assert_eq!(snapshot(&dir.0), before, "pneumo {args:?} changed the files of its folder");
     errors[0].to_string()
+}
+
+/// Longest line of a message [bytes]: one line a person reads, whatever the input held.
+const MAX_LINE: usize = 1000;
+
+/// One short line with no number spelled out in dozens of digits (1e300 as
+/// 300 digits, 5e-324 as a line of zeros).
+fn assert_readable(line: &str) {
+    assert!(line.len() <= MAX_LINE, "a {}-byte line: {}…", line.len(), line.chars().take(300).collect::<String>());
+    let mut run = 0;
+    for c in line.chars() {
+        run = if c.is_ascii_digit() { run + 1 } else { 0 };
+        assert!(run < 30, "a number spelled out in {run}+ digits: {}…", line.chars().take(300).collect::<String>());
+    }
 }
 
 fn model() -> PathBuf {
@@ -125,7 +142,7 @@ fn absurd_physical_values_are_rejected_at_load() {
 fn endless_or_huge_input_files_are_refused() {
     let dir = Scratch::new("devzero");
     if Path::new("/dev/zero").exists() {
-        fails_cleanly(&dir, &["check", "/dev/zero"], &["/dev/zero", "MiB"]);
+        fails_cleanly(&dir, &["check", "/dev/zero"], &["/dev/zero", "character device"]);
     }
     // a corrupt shard claiming 1e14 cases
     std::fs::write(dir.path("s.csv"), "case,n_cases,a.x,cycle1_total_s,error\n0,100000000000000,1,2,\n").unwrap();
@@ -238,4 +255,142 @@ fn a_manifest_cannot_make_pneumo_read_and_quote_files_outside_its_folder() {
     let m = model();
     let err = fails_cleanly(&dir, &["discrepancy", m.to_str().unwrap(), "--experiments", "exp/e.json"], &["outside the manifest's folder"]);
     assert!(!err.contains("root:x"), "{err}");
+}
+
+// ------------------------------------------------------------------ issue 27: the last hostile inputs
+
+#[test]
+fn sweep_jobs_100000_with_one_case_runs_on_a_bounded_pool() {
+    let dir = Scratch::new("jobs");
+    let m = local_model(&dir);
+    let start = std::time::Instant::now();
+    let out = pneumo(&dir.0, &["sweep", &m, "--vary", "supply.p=4 bar", "--jobs", "100000", "--cycles", "1", "--out", "r.csv"]);
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    let rows = std::fs::read_to_string(dir.path("r.csv")).unwrap();
+    assert_eq!(rows.lines().count(), 2, "{rows}");
+    // (no assertion on wall time; the 60 s limit of every run catches a hang)
+    println!("--jobs 100000, one case: {:.2} s", start.elapsed().as_secs_f64());
+    for jobs in ["0", "-3", "many"] {
+        let err = fails_cleanly(&dir, &["sweep", &m, "--vary", "supply.p=4 bar", "--jobs", jobs], &["--jobs"]);
+        assert!(err.contains(jobs), "{err}");
+    }
+}
+
+#[test]
+fn device_files_and_fifos_as_data_or_netlist_files_are_refused_unread() {
+    let dir = Scratch::new("devices");
+    let m = local_model(&dir);
+    if Path::new("/dev/zero").exists() {
+        fails_cleanly(&dir, &["check", "/dev/zero"], &["/dev/zero", "character device", "netlist"]);
+        fails_cleanly(&dir, &["conductance", "--volume", "1 L", "--data", "/dev/zero"], &["/dev/zero", "character device", "data"]);
+        fails_cleanly(&dir, &["plot", "/dev/zero", "-o", "p.png"], &["/dev/zero", "character device"]);
+        fails_cleanly(&dir, &["merge", "/dev/zero", "--out", "x.csv"], &["/dev/zero", "character device"]);
+        fails_cleanly(&dir, &["discrepancy", &m, "--experiments", "/dev/zero"], &["/dev/zero"]);
+    }
+    // a named pipe with no writer: opening it would block forever
+    #[cfg(unix)]
+    {
+        let fifo = dir.path("pipe.json");
+        let c = std::ffi::CString::new(fifo.to_str().unwrap()).unwrap();
+        // SAFETY: mkfifo reads a NUL-terminated path and creates a file; nothing else
+        assert_eq!(unsafe { libc::mkfifo(c.as_ptr(), 0o600) }, 0, "mkfifo");
+        fails_cleanly(&dir, &["check", "pipe.json"], &["pipe.json", "named pipe"]);
+        fails_cleanly(&dir, &["conductance", "--volume", "1 L", "--data", "pipe.json"], &["pipe.json", "named pipe"]);
+    }
+    std::fs::create_dir_all(dir.path("folder.json")).unwrap();
+    fails_cleanly(&dir, &["check", "folder.json"], &["folder.json", "directory"]);
+}
+
+#[test]
+fn set_with_a_100_kb_value_is_echoed_short_and_extreme_numbers_print_readably() {
+    let dir = Scratch::new("longset");
+    let m = local_model(&dir);
+    let digits = "1".repeat(100_000);
+    let err = fails_cleanly(&dir, &["check", &m, "--set", &format!("supply.p={digits}")], &["supply"]);
+    assert!(err.len() < 600, "{} bytes: {err}", err.len());
+    let junk = format!("supply.p=4 {}", "x".repeat(100_000));
+    let err = fails_cleanly(&dir, &["check", &m, "--set", &junk], &["characters)"]);
+    assert!(err.len() < 600, "{} bytes: {err}", err.len());
+    // warnings and errors about extreme values: each one short line, the number as 1e300 / 5e-324
+    for (set, shown) in
+        [("head.bore=1e300", "1e300"), ("supply.p=5e-324", "5e-324"), ("head.dead_volume=5e-324", "5e-324"), ("piston.mass=1e300", "")]
+    {
+        let out = pneumo(&dir.0, &["check", &m, "--set", set]);
+        let err = text(&out.stderr);
+        assert!(matches!(out.status.code(), Some(0..=2)), "{set}: {err}");
+        err.lines().for_each(assert_readable);
+        assert!(err.contains(shown), "{set}: {err}");
+    }
+}
+
+#[test]
+fn cycles_0_is_refused_with_the_usage_status() {
+    let dir = Scratch::new("cycles0");
+    let m = local_model(&dir);
+    for args in [
+        vec!["simulate", m.as_str(), "--cycles", "0", "--out", "r.csv"],
+        vec!["sweep", m.as_str(), "--vary", "supply.p=4 bar", "--cycles", "0", "--out", "r.csv"],
+        vec!["simulate", m.as_str(), "--cycles", "-1"],
+    ] {
+        let before = snapshot(&dir.0);
+        let out = pneumo(&dir.0, &args);
+        let err = text(&out.stderr);
+        assert_eq!(out.status.code(), Some(2), "{args:?}: {err}");
+        assert_eq!(err.lines().count(), 1, "{err}");
+        assert!(err.contains("--cycles") && err.contains("at least 1") || err.contains("-1"), "{err}");
+        assert_eq!(snapshot(&dir.0), before);
+    }
+    // the same in the netlist's own settings
+    fails_cleanly(&dir, &["simulate", &m, "--set", "simulation.cycles=0", "--out", "r.csv"], &["cycles", "at least 1"]);
+}
+
+#[test]
+fn conductance_volume_minus_1_l_reaches_the_real_validation() {
+    let dir = Scratch::new("negvol");
+    dir.write("d.csv", "t,p\n0,600000\n1,300000\n2,101325\n");
+    for volume in ["-1 L", "-1", "-0.5e-3"] {
+        fails_cleanly(&dir, &["conductance", "--volume", volume, "--data", "d.csv"], &["--volume", "volume must be positive"]);
+    }
+    fails_cleanly(&dir, &["conductance", "--volume", "1 L", "--data", "d.csv", "--p-atm", "-1 bar"], &["--p-atm", "positive"]);
+    fails_cleanly(&dir, &["conductance", "--volume", "1 L", "--data", "d.csv", "--tau-thermal", "-2 s"], &["--tau-thermal", ">= 0 s"]);
+    fails_cleanly(&dir, &["conductance", "--volume", "1 L", "--data", "d.csv", "--b-window", "-0.5"], &["--b-window", "(0, 1)"]);
+    let m = model();
+    fails_cleanly(&dir, &["simulate", m.to_str().unwrap(), "--t-end", "-1"], &["--t-end", "> 0 s"]);
+}
+
+#[test]
+fn set_with_nothing_before_the_equals_shows_the_expected_form() {
+    let dir = Scratch::new("emptyset");
+    let m = local_model(&dir);
+    fails_cleanly(&dir, &["check", &m, "--set", "=4 bar"], &["ID.PARAM=VALUE", "supply.p=6 bar"]);
+    fails_cleanly(&dir, &["check", &m, "--set", "4 bar"], &["ID.PARAM=VALUE"]);
+    fails_cleanly(&dir, &["check", &m, "--set", "nosuchthing=4 bar"], &["nosuchthing", "ID.PARAM=VALUE"]);
+}
+
+#[test]
+fn a_50_mb_netlist_follows_the_memory_budget_and_names_its_unknown_type() {
+    /// The meter-out netlist with a description of `description_bytes` and
+    /// `extra` more chambers, the last of type `last_type`.
+    fn big_netlist(description_bytes: usize, extra: usize, last_type: &str) -> String {
+        let mut v: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(model()).unwrap()).unwrap();
+        v["description"] = serde_json::Value::from("long description ".repeat(description_bytes / 17 + 1));
+        let comps = v["components"].as_array_mut().unwrap();
+        for i in 0..extra {
+            let kind = if i + 1 == extra { last_type } else { "chamber" };
+            comps.push(serde_json::json!({ "id": format!("extra{i}"), "type": kind, "params": { "dead_volume": "1 L" } }));
+        }
+        serde_json::to_string(&v).unwrap()
+    }
+
+    let dir = Scratch::new("bignetlist");
+    let _ = local_model(&dir);
+    // 50 MB of description: read and checked (within the default --max-memory)
+    dir.write("long.json", &big_netlist(50_000_000, 0, "chamber"));
+    let out = pneumo(&dir.0, &["check", "long.json"]);
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    // thousands of components with one unknown type, padded to 50 MB: the type is named
+    dir.write("unknown.json", &big_netlist(50_000_000, 5000, "warp_drive"));
+    fails_cleanly(&dir, &["check", "unknown.json"], &["warp_drive"]);
+    // a budget too small for the file: refused unread, naming the setting that raises it
+    fails_cleanly(&dir, &["--max-memory", "64", "check", "long.json"], &["long.json", "MiB", "--max-memory"]);
 }

@@ -59,13 +59,18 @@ const HOSTILE_VALUES: &[&str] = &[
     "1e-300 L",
     "0 K",
     "-273.15 degC",
+    "5e-324 bar",
+    "-1e300 mm",
 ];
+
+/// Floats at the ends of the f64 range: messages must print them readably.
+const EXTREME_FLOATS: &[f64] = &[1e300, -1e300, 5e-324, f64::MAX, -f64::MIN_POSITIVE];
 
 fn hostile_json(rng: &mut Rng) -> Value {
     match rng.below(8) {
         0 => Value::from(-1.0),
         1 => Value::from(0),
-        2 => Value::from(1e300),
+        2 => Value::from(EXTREME_FLOATS[rng.below(EXTREME_FLOATS.len())]),
         3 => Value::Null,
         4 => Value::Bool(true),
         5 => serde_json::json!([1, "x", {"a": null}]),
@@ -205,10 +210,67 @@ fn clean(out: &Output, what: &str) -> bool {
                 "{what}: expected one error line, got:\n{err}"
             );
             assert!(!lines[0].chars().any(|c| c.is_control()), "{what}: control character in {:?}", lines[0]);
+            err.lines().for_each(|l| assert_readable(l, what));
             false
         }
         code => panic!("{what}: exit {code:?} (101 is a panic, None a signal); stderr:\n{err}"),
     }
+}
+
+/// Longest line of a message [bytes].
+const MAX_LINE: usize = 1000;
+
+/// One short line, with no number spelled out in dozens of digits.
+fn assert_readable(line: &str, what: &str) {
+    assert!(line.len() <= MAX_LINE, "{what}: a {}-byte line: {}…", line.len(), line.chars().take(300).collect::<String>());
+    let mut run = 0;
+    for c in line.chars() {
+        run = if c.is_ascii_digit() { run + 1 } else { 0 };
+        assert!(run < 30, "{what}: a number spelled out in digits: {}…", line.chars().take(300).collect::<String>());
+    }
+}
+
+/// Every numeric field of the meter-out netlist (numbers, and texts that
+/// start with a number such as "45 mm") set to each extreme float in turn:
+/// `check` ends cleanly and every line it prints stays short and readable.
+#[test]
+fn extreme_floats_in_every_numeric_field_end_cleanly() {
+    let models = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../models");
+    let text = std::fs::read_to_string(models.join("meter_out.json")).unwrap();
+    let original: Value = serde_json::from_str(&text).unwrap();
+    let dir = Scratch::new("extreme");
+    std::fs::create_dir_all(dir.0.join("lib")).unwrap();
+    std::fs::copy(models.join("lib/cylinder.json"), dir.0.join("lib/cylinder.json")).unwrap();
+    let mut all = Vec::new();
+    paths(&original, &mut Vec::new(), &mut all);
+    let numeric = |v: &Value| v.is_number() || v.as_str().is_some_and(|s| s.trim_start().starts_with(|c: char| c.is_ascii_digit()));
+    let mut runs = 0;
+    for path in &all {
+        for x in [1e300, -1e300, 5e-324] {
+            let mut v = original.clone();
+            let Some(parent) = parent_mut(&mut v, path) else { continue };
+            let last = path.last().unwrap();
+            let slot = match parent {
+                Value::Object(m) => m.get_mut(last),
+                Value::Array(a) => last.parse::<usize>().ok().and_then(|i| a.get_mut(i)),
+                _ => None,
+            };
+            let Some(slot) = slot.filter(|s| numeric(s)) else { continue };
+            *slot = match slot {
+                // "45 mm" -> "1e300 mm": the number replaced, its unit kept
+                Value::String(s) => match s.trim().split_once(' ') {
+                    Some((_, unit)) => Value::from(format!("{x:e} {unit}")),
+                    None => Value::from(x),
+                },
+                _ => Value::from(x),
+            };
+            std::fs::write(dir.0.join("extreme.json"), serde_json::to_vec_pretty(&v).unwrap()).unwrap();
+            clean(&pneumo(&dir.0, &["check", "extreme.json"]), &format!("{} = {x:e}", path.join(".")));
+            runs += 1;
+        }
+    }
+    println!("{runs} runs of check with an extreme float");
+    assert!(runs > 30, "only {runs} numeric fields found");
 }
 
 #[test]

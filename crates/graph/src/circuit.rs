@@ -57,7 +57,7 @@ pub struct MechanicalNode {
 }
 
 /// A block instance with its id.
-#[derive(Debug)]
+#[derive(Debug, Clone)]
 pub struct Instance {
     pub id: String,
     pub block: Box<dyn Block>,
@@ -68,7 +68,7 @@ pub struct Instance {
 }
 
 /// A wired circuit with causality assigned.
-#[derive(Debug)]
+#[derive(Debug, Clone)]
 pub struct Circuit {
     pub name: String,
     pub gas: Arc<dyn GasModel>,
@@ -144,10 +144,15 @@ pub fn build(flat: &FlatNetlist) -> Result<Circuit, GraphError> {
 /// ([`Drive::External`]: the model is driven from outside, e.g. as an FMU).
 pub fn build_with(flat: &FlatNetlist, drive: Drive) -> Result<Circuit, GraphError> {
     let (concrete, resolved) = crate::params::concrete(flat)?;
-    let mut circuit = build_concrete(&concrete, drive, &resolved)?;
-    crate::consistency::errors(&circuit)?;
+    let mut circuit = build_concrete(&concrete, drive, &resolved).map_err(|e| e.in_file(&flat.origin))?;
+    // the file a component was written in; for the inside of a built-in, the top-level file
+    let origin = |id: &str| match concrete.component(id) {
+        Some(c) if !c.origin.starts_with(crate::library::FILE_PREFIX) => c.origin.clone(),
+        _ => concrete.origin.clone(),
+    };
+    crate::consistency::errors(&circuit, &origin)?;
     circuit.warnings = resolved.warnings.clone();
-    circuit.warnings.extend(crate::consistency::check(&circuit));
+    circuit.warnings.extend(crate::consistency::check(&circuit, &origin));
     circuit.resolved = resolved;
     Ok(circuit)
 }
@@ -162,14 +167,17 @@ fn build_concrete(flat: &FlatNetlist, drive: Drive, resolved: &crate::params::Re
             return Err(GraphError::BadId { file: c.origin.clone(), id: c.id.clone() });
         }
         if seen.insert(c.id.clone(), ()).is_some() {
-            return Err(GraphError::DuplicateId { id: c.id.clone() });
+            return Err(GraphError::DuplicateId { file: c.origin.clone(), id: c.id.clone() });
         }
         if c.kind == "subsystem" {
             return Err(GraphError::Subsystem { id: c.id.clone(), message: "subsystem was not expanded".into() });
         }
         let raw: Vec<(String, blocks::RawValue)> = c.params.iter().chain(c.init.iter()).map(|(k, v)| (k.clone(), v.to_raw())).collect();
-        let block = blocks::registry::build(&c.kind, raw.iter().map(|(k, v)| (k.as_str(), v)))
-            .map_err(|source| GraphError::Block { id: c.id.clone(), source: Box::new(source) })?;
+        let block = blocks::registry::build(&c.kind, raw.iter().map(|(k, v)| (k.as_str(), v))).map_err(|source| GraphError::Block {
+            file: c.origin.clone(),
+            id: c.id.clone(),
+            source: Box::new(source),
+        })?;
         let n = block.ports().len();
         instances.push(Instance { id: c.id.clone(), block, port_nodes: vec![None; n], signal_sources: Vec::new() });
     }

@@ -93,7 +93,7 @@ pub fn parse(text: &str, origin: &str) -> Result<Netlist, GraphError> {
 
 /// Load, parse and expand the netlist at `path`.
 pub fn load(loader: &dyn Loader, path: &Path) -> Result<FlatNetlist, GraphError> {
-    let text = loader.read(path).map_err(|message| GraphError::Io { file: path.display().to_string(), message })?;
+    let text = loader.read(path).map_err(|message| GraphError::Io { file: crate::escape(&path.display().to_string()), message })?;
     let netlist = parse(&text, &path.display().to_string())?;
     expand(loader, &netlist, path, &mut vec![path.to_path_buf()])
 }
@@ -107,7 +107,78 @@ pub fn flatten(loader: &dyn Loader, netlist: &Netlist, dir: &Path, depth: usize)
 }
 
 fn valid_user_id(id: &str) -> bool {
-    !id.is_empty() && id.chars().all(|c| c.is_ascii_alphanumeric() || c == '_' || c == '-')
+    !id.is_empty() && id.len() <= crate::MAX_NAME_CHARS && id.chars().all(|c| c.is_ascii_alphanumeric() || c == '_' || c == '-')
+}
+
+/// Where the netlist of a subsystem component comes from.
+enum SubSource {
+    /// A built-in sub-circuit (`"type": "cylinder"`, `"file": "lib:cylinder"`).
+    BuiltIn(&'static crate::library::Entry),
+    /// A file, resolved against the including netlist's folder, and as written.
+    File { path: PathBuf, written: String },
+}
+
+/// The netlist a component expands to, or `None` for a block; an unknown
+/// type, a missing `file` or a `file` on a block is an error naming the
+/// component and the file it is written in.
+fn subsystem_source(c: &Component, origin: &str, dir: &Path) -> Result<Option<SubSource>, GraphError> {
+    let at = |message: String| GraphError::Component { file: origin.to_string(), id: c.id.clone(), message };
+    if c.kind == "subsystem" {
+        let written = c.file.as_deref().ok_or_else(|| {
+            at(format!(
+                "a subsystem needs \"file\" (a netlist, relative to this one, or a built-in: {})",
+                crate::library::names().iter().map(|n| format!("\"{}{n}\"", crate::library::FILE_PREFIX)).collect::<Vec<_>>().join(", ")
+            ))
+        })?;
+        return match crate::library::from_file(written) {
+            Some(found) => found.map(|entry| Some(SubSource::BuiltIn(entry))).map_err(at),
+            None => Ok(Some(SubSource::File { path: dir.join(written), written: written.to_string() })),
+        };
+    }
+    let built_in = crate::library::get(&c.kind);
+    if built_in.is_none() && blocks::registry::block_type(&c.kind).is_err() {
+        let known = blocks::registry::TYPES.iter().map(|t| t.name).chain(crate::library::names()).chain(["subsystem"]);
+        let hint = blocks::suggest::did_you_mean(&c.kind, known.clone());
+        return Err(at(format!(
+            "unknown component type \"{}\"{hint} (blocks: {}; built-in components: {}; or \"subsystem\" with a \"file\")",
+            crate::escape(&c.kind),
+            blocks::registry::TYPES.iter().map(|t| t.name).collect::<Vec<_>>().join(", "),
+            crate::library::names().join(", ")
+        )));
+    }
+    if let Some(file) = &c.file {
+        return Err(at(format!(
+            "\"file\": \"{}\" is only read for \"type\": \"subsystem\"; this component is a {}",
+            crate::escape(file),
+            c.kind
+        )));
+    }
+    Ok(built_in.map(SubSource::BuiltIn))
+}
+
+/// A hint after a subsystem file that cannot be read, when its name is that
+/// of a built-in component (`lib/cylinder.json`: `"type": "cylinder"`).
+fn built_in_hint(written: &str) -> String {
+    let stem = Path::new(written).file_stem().and_then(|s| s.to_str()).unwrap_or("");
+    let near = blocks::suggest::nearest(stem, crate::library::names());
+    match crate::library::get(stem).map(|e| e.name).or(near.first().copied()) {
+        Some(name) => format!("; the built-in {name} needs no file: write \"type\": \"{name}\""),
+        None => String::new(),
+    }
+}
+
+/// Refuse a file that includes itself, or nesting deeper than [`MAX_NESTING`].
+fn check_chain(chain: &[PathBuf], path: &Path, id: &str) -> Result<(), GraphError> {
+    if chain.len() > MAX_NESTING || chain.iter().any(|f| f == path) {
+        let files: Vec<String> = chain.iter().map(|f| f.as_path()).chain([path]).map(|f| f.display().to_string()).collect();
+        let why = if chain.len() > MAX_NESTING {
+            format!("subsystems nested more than {MAX_NESTING} deep")
+        } else {
+            "a subsystem includes itself".to_string()
+        };
+        return Err(GraphError::Subsystem { id: id.to_string(), message: format!("{why}: {}", files.join(" -> ")) });
+    }
+    Ok(())
 }
 
 /// Expand `netlist`, read from `file`; `chain` lists the files including it (itself last).
@@ -150,7 +221,7 @@ fn expand(loader: &dyn Loader, netlist: &Netlist, file: &Path, chain: &mut Vec<P
                 message: format!("{origin}: \"{}\" is both a component and a parameter", c.id),
             });
         }
-        if c.kind != "subsystem" {
+        let Some(sub_source) = subsystem_source(c, &origin, dir)? else {
             if components.len() >= loader.max_components() {
                 return Err(GraphError::Subsystem {
                     id: c.id.clone(),
@@ -162,23 +233,22 @@ fn expand(loader: &dyn Loader, netlist: &Netlist, file: &Path, chain: &mut Vec<P
             }
             components.push(Component { origin: origin.clone(), ..c.clone() });
             continue;
-        }
-        let sub_file = c
-            .file
-            .as_deref()
-            .ok_or_else(|| GraphError::Subsystem { id: c.id.clone(), message: format!("{origin}: a subsystem needs \"file\"") })?;
-        let path = dir.join(sub_file);
-        if chain.len() > MAX_NESTING || chain.iter().any(|f| f == &path) {
-            let files: Vec<String> = chain.iter().chain([&path]).map(|f| f.display().to_string()).collect();
-            let why = if chain.len() > MAX_NESTING {
-                format!("subsystems nested more than {MAX_NESTING} deep")
-            } else {
-                "a subsystem includes itself".to_string()
-            };
-            return Err(GraphError::Subsystem { id: c.id.clone(), message: format!("{why}: {}", files.join(" -> ")) });
-        }
-        let text = loader.read(&path).map_err(|message| GraphError::Io { file: path.display().to_string(), message })?;
-        let sub = parse(&text, &path.display().to_string())?;
+        };
+        let (path, sub) = match sub_source {
+            SubSource::BuiltIn(entry) => (PathBuf::from(crate::library::origin(entry)), crate::library::netlist(entry)?),
+            SubSource::File { path, written } => {
+                check_chain(chain, &path, &c.id)?;
+                let text = loader.read(&path).map_err(|message| GraphError::SubsystemFile {
+                    file: origin.clone(),
+                    id: c.id.clone(),
+                    path: crate::escape(&path.display().to_string()),
+                    written: crate::escape(&written),
+                    message: format!("{message}{}", built_in_hint(&written)),
+                })?;
+                let sub = parse(&text, &path.display().to_string())?;
+                (path, sub)
+            }
+        };
         chain.push(path.clone());
         let inner = expand(loader, &sub, &path, chain)?;
         chain.pop();
@@ -243,9 +313,11 @@ fn expand(loader: &dyn Loader, netlist: &Netlist, file: &Path, chain: &mut Vec<P
             } else {
                 let mut known: Vec<&str> = interface.params.keys().map(String::as_str).collect();
                 known.extend(sub.parameters.keys().map(String::as_str));
-                return Err(GraphError::Subsystem {
+                let hint = blocks::suggest::did_you_mean(name, known.iter().copied());
+                return Err(GraphError::Component {
+                    file: origin.clone(),
                     id: c.id.clone(),
-                    message: format!("unknown parameter \"{name}\" (the subsystem exposes: {})", known.join(", ")),
+                    message: format!("unknown parameter \"{}\"{hint} ({} has: {})", crate::escape(name), path.display(), known.join(", ")),
                 });
             }
         }
@@ -298,6 +370,20 @@ pub fn value_from_text(text: &str) -> Value {
     }
 }
 
+/// The forms `--set` takes, for its messages.
+const SET_FORM: &str = "expected ID.PARAM=VALUE (e.g. supply.p=6 bar), or NAME=VALUE for a netlist parameter";
+
+/// Names for a message: the first few, then how many there are in all.
+fn name_list<S: AsRef<str>>(names: &[S]) -> String {
+    const SHOWN: usize = 12;
+    let shown: Vec<&str> = names.iter().take(SHOWN).map(AsRef::as_ref).collect();
+    if names.len() > SHOWN {
+        format!("{}, … ({} in all)", shown.join(", "), names.len())
+    } else {
+        shown.join(", ")
+    }
+}
+
 /// Apply an override "NAME=VALUE" to the flat netlist: a parameter
 /// (`p_supply`, `cyl.bore`), an interface parameter of a subsystem
 /// (`cyl.T0`), a component parameter (`supply.p`, `cyl.piston.mass`),
@@ -305,8 +391,11 @@ pub fn value_from_text(text: &str) -> Value {
 /// expression (`"rod.p0== supply.p"`), evaluated at the top level.
 pub fn apply_set(flat: &mut FlatNetlist, assignment: &str) -> Result<(), GraphError> {
     let bad = |message: &str| GraphError::Set { assignment: crate::escape(assignment), message: message.to_string() };
-    let (target, value) = assignment.split_once('=').ok_or_else(|| bad("expected NAME=VALUE (e.g. supply.p=6 bar)"))?;
+    let (target, value) = assignment.split_once('=').ok_or_else(|| bad(SET_FORM))?;
     let target = target.trim();
+    if target.is_empty() {
+        return Err(bad(&format!("nothing before \"=\": {SET_FORM}")));
+    }
     if let Some(p) = flat.parameters.iter_mut().find(|p| p.name == target) {
         p.value = value_from_text(value);
         p.scope = String::new();
@@ -321,9 +410,9 @@ pub fn apply_set(flat: &mut FlatNetlist, assignment: &str) -> Result<(), GraphEr
     let (id, param) = split_ref(target).ok_or_else(|| {
         let known: Vec<&str> = flat.parameters.iter().map(|p| p.name.as_str()).filter(|n| !n.contains('.')).collect();
         if known.is_empty() {
-            bad("expected ID.PARAM=VALUE")
+            bad(&format!("\"{}\" is not ID.PARAM: {SET_FORM}", crate::escape(target)))
         } else {
-            bad(&format!("no parameter \"{}\" (parameters: {})", crate::escape(target), known.join(", ")))
+            bad(&format!("no parameter \"{}\" (parameters: {}; or {SET_FORM})", crate::escape(target), name_list(&known)))
         }
     })?;
     if id == "simulation" {
@@ -337,7 +426,7 @@ pub fn apply_set(flat: &mut FlatNetlist, assignment: &str) -> Result<(), GraphEr
 
 /// Write `value` into `id.param` of a component, as a top-level value.
 fn set_component_value(flat: &mut FlatNetlist, target: &str, value: &str) -> Result<(), String> {
-    let (id, param) = split_ref(target).ok_or_else(|| "expected ID.PARAM=VALUE".to_string())?;
+    let (id, param) = split_ref(target).ok_or_else(|| SET_FORM.to_string())?;
     let scope_ids = |flat: &FlatNetlist| -> Vec<String> {
         let mut ids: Vec<String> = flat.components.iter().map(|c| c.id.clone()).collect();
         ids.sort();
@@ -354,10 +443,10 @@ fn set_component_value(flat: &mut FlatNetlist, target: &str, value: &str) -> Res
                 .filter_map(|n| n.strip_prefix(&format!("{id}.")).map(str::to_string))
                 .filter(|n| !n.contains('.'))
                 .collect();
-            format!("subsystem \"{}\" has no parameter \"{}\" (it has: {})", crate::escape(id), crate::escape(param), names.join(", "))
+            format!("subsystem \"{}\" has no parameter \"{}\" (it has: {})", crate::escape(id), crate::escape(param), name_list(&names))
         } else {
             let ids = scope_ids(flat);
-            format!("no component \"{}\" (components: {})", crate::escape(id), ids.join(", "))
+            format!("no component \"{}\" (components: {})", crate::escape(id), name_list(&ids))
         });
     };
     let in_init = comp.init.remove(param).is_some();

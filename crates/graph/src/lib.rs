@@ -11,6 +11,7 @@ pub mod circuit;
 pub mod consistency;
 pub mod expand;
 pub mod interface;
+pub mod library;
 pub mod netlist;
 pub mod params;
 pub mod report;
@@ -40,44 +41,58 @@ impl std::fmt::Display for Warning {
     }
 }
 
-/// Text from the user made safe to echo in a one-line message: control
-/// characters (newlines, escapes, ...) are shown as `\u{..}`, and very long
-/// text is cut.
+/// Text from the user made safe to echo in a one-line message: hidden
+/// characters (newlines, escapes, ...) shown as `\u{..}`, long text
+/// shortened with its length (the one rule of [`units::show::text`]).
 pub fn escape(text: &str) -> String {
-    let mut out = String::new();
-    for (i, c) in text.chars().enumerate() {
-        if i >= 200 {
-            out.push('…');
-            break;
-        }
-        if c.is_control() || matches!(c, '\u{2028}' | '\u{2029}' | '\u{feff}' | '\u{202e}' | '\u{202d}') {
-            out.push_str(&format!("\\u{{{:x}}}", c as u32));
-        } else {
-            out.push(c);
-        }
-    }
-    out
+    units::show::text(text)
 }
 
 use blocks::block::Domain;
+
+/// "FILE: " before a message about a component, or "" when the file is unknown.
+fn file_prefix(file: &str) -> String {
+    if file.is_empty() {
+        String::new()
+    } else {
+        format!("{file}: ")
+    }
+}
+
+/// Longest component id or parameter name a netlist may use [characters]:
+/// every message names them, and one line must stay short.
+pub const MAX_NAME_CHARS: usize = 100;
 
 /// A netlist that cannot be turned into a circuit. Every variant names the
 /// file position, component, parameter or port at fault.
 #[derive(Debug, thiserror::Error)]
 pub enum GraphError {
+    /// An error about the wiring of a netlist, with the netlist's file.
+    #[error("{file}: {source}")]
+    InFile { file: String, source: Box<GraphError> },
     #[error("{file}:{line}:{column}: {message}")]
     Json { file: String, line: usize, column: usize, message: String },
     #[error("cannot read {file}: {message}")]
     Io { file: String, message: String },
-    #[error("component \"{id}\": {source}")]
-    Block { id: String, source: Box<blocks::BlockError> },
+    #[error("{}component \"{id}\": {source}", file_prefix(file))]
+    Block { file: String, id: String, source: Box<blocks::BlockError> },
+    #[error("{}component \"{id}\": {message}", file_prefix(file))]
+    Component { file: String, id: String, message: String },
+    #[error(
+        "{}component \"{id}\": cannot read its subsystem file {path} (\"{written}\", relative to the netlist that names it): {message}",
+        file_prefix(file)
+    )]
+    SubsystemFile { file: String, id: String, path: String, written: String, message: String },
     #[error("subsystem \"{id}\": {message}")]
     Subsystem { id: String, message: String },
     #[error("--set {assignment}: {message}")]
     Set { assignment: String, message: String },
-    #[error("{file}: component id \"{}\" may contain only letters, digits, '_' and '-'", escape(id))]
+    #[error("{file}: component id \"{}\" may contain only letters, digits, '_' and '-' (at most {MAX_NAME_CHARS})", escape(id))]
     BadId { file: String, id: String },
-    #[error("{file}: parameter name \"{}\" must be a letter or '_' followed by letters, digits or '_' (and not \"pi\")", escape(name))]
+    #[error(
+        "{file}: parameter name \"{}\" must be a letter or '_' followed by letters, digits or '_' (at most {MAX_NAME_CHARS}, and not \"pi\")",
+        escape(name)
+    )]
     BadParameterName { file: String, name: String },
     #[error("{file}: {subject}: {message}")]
     Parameter { file: String, subject: String, message: String },
@@ -85,8 +100,8 @@ pub enum GraphError {
     ParameterCycle { file: String, cycle: String },
     #[error("{file}: interface {what} \"{name}\": {message}")]
     Interface { file: String, what: &'static str, name: String, message: String },
-    #[error("component id \"{id}\" is used twice")]
-    DuplicateId { id: String },
+    #[error("{}component id \"{id}\" is used twice", file_prefix(file))]
+    DuplicateId { file: String, id: String },
     #[error("\"{reference}\" is not of the form ID.PORT")]
     BadRef { reference: String },
     #[error("\"{reference}\": no component \"{id}\"")]
@@ -115,6 +130,22 @@ pub enum GraphError {
     TiedInertias { ports: String },
     #[error("signal loop through \"{id}\" with no state to break it")]
     SignalLoop { id: String },
-    #[error("component \"{id}\", parameter \"{param}\": {message}")]
-    Inconsistent { id: String, param: String, message: String },
+    #[error("{}component \"{id}\", parameter \"{param}\": {message}", file_prefix(file))]
+    Inconsistent { file: String, id: String, param: String, message: String },
+}
+
+impl GraphError {
+    /// The error with the netlist's file in front, when it names none
+    /// itself (a connection, a port, a node); command-line errors (`--set`)
+    /// stay as they are.
+    pub fn in_file(self, file: &str) -> GraphError {
+        use GraphError::*;
+        match self {
+            e @ (InFile { .. } | Json { .. } | Io { .. } | Set { .. } | BadId { .. } | BadParameterName { .. } | Parameter { .. }) => e,
+            e @ (ParameterCycle { .. } | Interface { .. } | Block { .. } | Component { .. } | SubsystemFile { .. }) => e,
+            e @ (DuplicateId { .. } | Inconsistent { .. }) => e,
+            e if file.is_empty() => e,
+            e => InFile { file: file.to_string(), source: Box::new(e) },
+        }
+    }
 }

@@ -36,7 +36,8 @@ use units::{dim, Dimension};
 /// Whether `name` may name a netlist parameter: an identifier, not `pi`.
 pub fn valid_parameter_name(name: &str) -> bool {
     let mut chars = name.chars();
-    matches!(chars.next(), Some(c) if c.is_ascii_alphabetic() || c == '_')
+    name.len() <= crate::MAX_NAME_CHARS
+        && matches!(chars.next(), Some(c) if c.is_ascii_alphabetic() || c == '_')
         && chars.all(|c| c.is_ascii_alphanumeric() || c == '_')
         && name != "pi"
 }
@@ -200,6 +201,7 @@ fn slots(flat: &FlatNetlist, warnings: &mut Vec<Warning>) -> Result<Vec<Slot>, G
                     }
                     None => {
                         let x = parse_value(spec, &v.to_raw()).map_err(|source| GraphError::Block {
+                            file: c.origin.clone(),
                             id: c.id.clone(),
                             source: Box::new(blocks::BlockError::Param(source)),
                         })?;
@@ -223,6 +225,7 @@ fn slots(flat: &FlatNetlist, warnings: &mut Vec<Warning>) -> Result<Vec<Slot>, G
 }
 
 fn bare_number_warning(origin: &str, name: &str, x: f64, d: Dimension, usual_unit: &str) -> Warning {
+    let x = units::show::num(x);
     let hint = if usual_unit.is_empty() || is_si_unit(usual_unit) {
         String::new()
     } else {
@@ -365,7 +368,11 @@ fn check_dimension(slot: &Slot, text: &str, q: Quantity) -> Result<(), GraphErro
         ));
     }
     if kind == ParamKind::Count && (q.value < 0.0 || q.value.fract() != 0.0) {
-        return Err(param_error(&slot.origin, &slot.subject, format!("\"= {}\" = {} is not a whole number >= 0", escape(text), q.value)));
+        return Err(param_error(
+            &slot.origin,
+            &slot.subject,
+            format!("\"= {}\" = {} is not a whole number >= 0", escape(text), units::show::num(q.value)),
+        ));
     }
     Ok(())
 }

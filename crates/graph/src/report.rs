@@ -110,8 +110,9 @@ pub fn show_value(v: &crate::params::ResolvedValue) -> String {
     let x = if unit.is_empty() { v.si } else { units::to_unit(v.si, &unit).unwrap_or(v.si) };
     // 10 significant digits hide conversion noise such as 19.999999999999996
     let x: f64 = format!("{x:.9e}").parse().unwrap_or(x);
+    let x = units::show::num(x);
     if unit.is_empty() {
-        format!("{x}")
+        x
     } else {
         format!("{x} {unit}")
     }

@@ -468,7 +468,7 @@ fn set_reaches_components_inside_a_subsystem() {
 fn subsystem_with_unknown_exposed_parameter_lists_what_it_exposes() {
     let loader = loader_with_parent(json!({ "diameter": "40 mm" }));
     let e = graph::load(&loader, Path::new("lib/parent.json")).unwrap_err().to_string();
-    assert_names(&e, &["subsystem \"cyl\"", "\"diameter\"", "bore, stroke"]);
+    assert_names(&e, &["component \"cyl\"", "\"diameter\"", "bore, stroke"]);
 }
 
 #[test]
@@ -516,4 +516,90 @@ fn subsystems_nested_too_deep_are_stopped_with_the_chain_of_files() {
     let loader = MemLoader::with(&refs);
     let e = graph::load(&loader, Path::new("level0.json")).unwrap_err().to_string();
     assert_names(&e, &["nested more than 16 deep", "level0.json -> level1.json", "level17.json"]);
+}
+
+// ---------------------------------------------------------------------------
+// A double-acting cylinder wired from raw chambers (issue 28's two mistakes)
+// ---------------------------------------------------------------------------
+
+/// A 5/2 valve driving a double-acting cylinder built from two chambers, a
+/// piston and friction, reversed by a cycler: valid as written; `rod` sets
+/// the rod chamber's parameters.
+fn raw_double_acting(rod: Value) -> Value {
+    json!({
+        "components": [
+            { "id": "supply", "type": "pressure_source", "params": { "p": "6 bar" } },
+            { "id": "exhaust", "type": "atmosphere" },
+            { "id": "dcv", "type": "valve_5_2", "params": { "C": "100 L/min/bar", "b": 0.3 } },
+            { "id": "head", "type": "chamber", "params": { "dead_volume": "20 cm3", "bore": "45 mm", "orientation": "extend" } },
+            { "id": "rod", "type": "chamber", "params": rod },
+            { "id": "piston", "type": "piston", "params": { "mass": "1 kg", "stroke": "450 mm", "rod_diameter": "15 mm" } },
+            { "id": "friction", "type": "friction", "params": { "k0": "10 N" } },
+            { "id": "controller", "type": "cycler", "params": { "stroke": "450 mm" } }
+        ],
+        "connections": [
+            ["supply.port", "dcv.P"], ["dcv.A", "head.port"], ["dcv.B", "rod.port"],
+            ["dcv.EA", "exhaust.port"], ["dcv.EB", "exhaust.port"],
+            ["head.piston", "piston.rod"], ["rod.piston", "piston.rod"], ["friction.rod", "piston.rod"],
+            { "from": "head.p", "to": "friction.p1" }, { "from": "rod.p", "to": "friction.p2" },
+            { "from": "piston.x", "to": "controller.x" }, { "from": "controller.command", "to": "dcv.command" }
+        ]
+    })
+}
+
+fn rod_params(drop: &str) -> Value {
+    let mut p =
+        json!({ "dead_volume": "20 cm3", "bore": "45 mm", "rod_diameter": "15 mm", "orientation": "retract", "length_at_zero": "450 mm" });
+    p.as_object_mut().unwrap().remove(drop);
+    p
+}
+
+/// The error `graph::load` + `graph::build` give for `netlist` written in `circuits/m.json`.
+fn error_in_file(netlist: &Value) -> String {
+    let loader = MemLoader::with(&[("circuits/m.json", netlist.to_string())]);
+    let flat = graph::expand::load(&loader, Path::new("circuits/m.json")).unwrap();
+    match graph::build(&flat) {
+        Ok(c) => panic!("expected an error, built with warnings {:?}", c.warnings),
+        Err(e) => e.to_string(),
+    }
+}
+
+#[test]
+fn a_raw_double_acting_cylinder_wired_right_builds_without_warnings() {
+    let c = graph::build(&flatten(&raw_double_acting(rod_params("none"))).unwrap()).unwrap();
+    assert!(c.warnings.is_empty(), "{:?}", c.warnings);
+}
+
+#[test]
+fn a_rod_chamber_without_a_gas_column_is_one_error_naming_the_chamber_and_the_fix() {
+    // before: `check` passed and the integrator failed with "step size fell below ... rod.T"
+    let e = error_in_file(&raw_double_acting(rod_params("length_at_zero")));
+    assert!(e.starts_with("circuits/m.json: component \"rod\", parameter \"length_at_zero\": "), "{e}");
+    assert_names(&e, &["piston.stroke = 450 mm", "no gas column", "x = 14.1 mm", "set \"length_at_zero\" to the stroke"]);
+    assert_eq!(e.lines().count(), 1, "{e}");
+    // a gas column shorter than the stroke empties the chamber too: x = 100 mm + 20 cm3 / 1414 mm2 (45 mm bore, 15 mm rod) = 114.1 mm
+    let mut short = rod_params("none");
+    short["length_at_zero"] = json!("100 mm");
+    let e = error_in_file(&raw_double_acting(short));
+    assert_names(&e, &["\"rod\"", "length_at_zero", "a gas column of 100 mm", "x = 114.1 mm"]);
+    // a column longer than the stroke runs (the chamber never empties): a warning naming both parameters
+    let mut long = rod_params("none");
+    long["length_at_zero"] = json!("500 mm");
+    let c = graph::build(&flatten(&raw_double_acting(long)).unwrap()).unwrap();
+    let w: Vec<String> = c.warnings.iter().map(|w| w.to_string()).collect();
+    assert!(w.iter().any(|w| w.contains("rod.length_at_zero = 500 mm but piston.stroke = 450 mm")), "{w:?}");
+}
+
+#[test]
+fn a_rod_chamber_left_at_orientation_extend_is_one_error_naming_the_chamber_and_the_fix() {
+    // before: `check` passed and the piston stalled at the upper stop for the whole run
+    let e = error_in_file(&raw_double_acting(rod_params("orientation")));
+    assert!(e.starts_with("circuits/m.json: component \"rod\", parameter \"orientation\": "), "{e}");
+    assert_names(&e, &["head and rod both push the piston toward extend", "\"orientation\": \"retract\""]);
+    assert_eq!(e.lines().count(), 1, "{e}");
+    // the head chamber turned the wrong way is named instead
+    let mut n = raw_double_acting(rod_params("none"));
+    n["components"][3]["params"]["orientation"] = json!("retract");
+    let e = error_in_file(&n);
+    assert!(e.contains("component \"head\", parameter \"orientation\"") && e.contains("\"orientation\": \"extend\""), "{e}");
 }

@@ -26,7 +26,7 @@ fn main() -> Result<(), String> {
     let flag = |name: &str| args.iter().position(|a| a == name).and_then(|i| args.get(i + 1)).cloned();
     let cycles: usize = flag("--cycles").and_then(|c| c.parse().ok()).unwrap_or(3);
     let mut t = truth::draw(case, seed, variation);
-    // development knob: FORM="index=0.49,laminar=1e-3,check=2000,tol=1e-4,lat=2e-4,skew=1e-3,gain=1e-3,jitter=1e-4,xoff=5e-5"
+    // development knob: FORM="index=0.49,laminar=1e-3,check=2000,tol=1e-4,lat=2e-4,crack=2e4,skew=1e-3,gain=1e-3,jitter=1e-4,xoff=5e-5"
     if let Ok(spec) = std::env::var("FORM") {
         for kv in spec.split(',').filter(|s| !s.is_empty()) {
             let (k, v) = kv.split_once('=').ok_or("FORM: key=value")?;
@@ -35,6 +35,7 @@ fn main() -> Result<(), String> {
                 "index" => t.form.subsonic.index = v,
                 "laminar" => t.form.subsonic.laminar_width = Some(v),
                 "check" => t.form.check = rig::CheckLaw::Linear { opening: v },
+                "crack" => t.check_cracking = v,
                 "tol" => t.form.switches.tolerance = v,
                 "lat" => t.form.switches.latency = v,
                 "skew" => t.sensors.time_skew = v,
@@ -77,10 +78,13 @@ fn main() -> Result<(), String> {
             let parts: Vec<&str> = item.split(':').collect();
             let bound = |i: usize| parts.get(i).and_then(|v| v.parse::<f64>().ok());
             let bounds = bound(1).zip(bound(2));
-            calibrate.push(identify::params::CalibSpec { target: parts[0].to_string(), bounds });
+            calibrate.push(identify::params::CalibSpec { target: parts[0].to_string(), bounds, prior: None });
         }
     }
     let mut options = identify::Options { report: true, ..identify::Options::default() };
+    if std::env::var("VERBOSE").is_ok() {
+        options.progress = identify::options::Progress::to(|m| eprintln!("{m}"));
+    }
     if std::env::var("BASEONLY").is_ok() {
         options.effects = Some(vec![]);
     }
@@ -88,11 +92,22 @@ fn main() -> Result<(), String> {
     if let Ok(only) = std::env::var("ONLY") {
         options.effects = Some(only.split(',').map(str::to_string).collect());
     }
+    // PREPARE=n: candidates prepared after the projected scan (0: the scan only)
+    if let Some(n) = std::env::var("PREPARE").ok().and_then(|s| s.parse().ok()) {
+        options.screen_prepare = n;
+    }
     if let Some(n) = std::env::var("STARTS").ok().and_then(|s| s.parse().ok()) {
         options.starts = n;
     }
+    // SKEW=σ [s] sets the skew prior (0: none), NOGAIN=1 fits no gains, NOFORM=1 drops the form parameters
     if let Some(x) = std::env::var("SKEW").ok().and_then(|s| s.parse().ok()) {
         options.sensors.skew = x;
+    }
+    if std::env::var("NOGAIN").is_ok() {
+        options.sensors.gain = false;
+    }
+    if std::env::var("NOFORM").is_ok() {
+        calibrate.retain(|c| c.prior.is_none());
     }
     let o = identify::run(&model, &experiments, &calibrate, &options).map_err(|e| e.to_string())?;
     let s = &o.summary;
@@ -100,8 +115,9 @@ fn main() -> Result<(), String> {
     println!("baseline rmse_n {:?} held-out {:.3}", s.baseline.rmse_normalized, s.baseline.heldout_rmse);
     for c in &s.candidates {
         println!(
-            "  r{} {:<18} dIC {:>10.1} chi2 {:>10.1} held {:>7.3} {} {:?} {}",
+            "  r{} {:<18} [{} sims] dIC {:>10.1} chi2 {:>10.1} held {:>7.3} {} {:?} {}",
             c.round,
+            c.evaluations,
             c.effect,
             c.delta_ic,
             c.chi2,
@@ -112,6 +128,23 @@ fn main() -> Result<(), String> {
         );
     }
     println!("after rmse_n {:?}", s.after.rmse_normalized);
+    for p in &s.after.params {
+        println!("  {} = {:?} {} (ci {:?})", p.name, p.shown, p.unit, p.ci95);
+    }
+    for x in s.after.sensors.iter().filter(|x| x.symptom.is_some() || std::env::var("SENSORS").is_ok()) {
+        println!(
+            "  {} {}: offset {:.4e} (z {:.2}) gain {:.2e} (z {:.2}) skew {:.3} ms {:?}",
+            x.experiment,
+            x.signal,
+            x.offset,
+            x.offset_z,
+            x.gain,
+            x.gain_z,
+            x.time_skew * 1e3,
+            x.symptom
+        );
+    }
+    println!("grade {:?}", s.grade);
     println!("{} simulations, {:.1} s, {:?}", s.evaluations, s.seconds, s.timing);
     Ok(())
 }

@@ -14,6 +14,23 @@
 //!    same short records; effective sample sizes, [`crate::stats`]) decides
 //!    the screen.
 //!
+//! # Before phase A: the projected scan ([`projected_scan`])
+//! Fitting every candidate is what a round costs, so candidates are first
+//! ranked cheaply. On the screening horizon, at the current model's
+//! short-record optimum θ̂ with residuals r₀ and the Jacobian J of its
+//! calibration (one finite-difference column per parameter, computed once
+//! per round), each point g of an effect's scan grid is simulated once,
+//! r_g = r(θ̂, g), and the calibration's best linear answer to it is
+//! projected out: r'_g = r_g − J(JᵀJ)⁺Jᵀr_g (the Gauss–Newton step of the
+//! calibration from θ̂). The effect's score is the best ΔIC of r'_g
+//! against r₀ on effective sample sizes ([`crate::stats::delta_ic`]). A
+//! missing effect that the calibration had bent to mimic scores well, as
+//! the projection undoes the bending to first order; one the calibration
+//! can imitate scores near zero. Only the best few candidates (and only
+//! those scoring below zero) are prepared and fitted ([`crate::selection`]).
+//! Cost: one simulation per calibration parameter and per grid point, on
+//! the short records.
+//!
 //! # Phase B: [`finish`]
 //! The full-record fit from the short-record solution, restarted while it
 //! stops far above the noise and each restart still helps; then the
@@ -176,11 +193,16 @@ pub struct Candidate {
     pub heldout_gain: f64,
     /// Held-out gain divided by the held-out remainder above the noise (the floor test).
     pub floor_ratio: f64,
+    /// Held-out gain as a fraction of the current model's held-out mean square.
+    pub heldout_relative: f64,
     /// Fraction of the current model's excess χ² (above N) removed.
     pub gap_explained: f64,
     pub accepted: bool,
     /// Why it was not accepted (empty when it passed every test).
     pub reasons: Vec<String>,
+    /// The tests it failed, by name: `fit`, `screen`, `parameter`, `bound`,
+    /// `information_criterion`, `heldout_gain`, `model_form_floor`, `sham`.
+    pub failed: Vec<String>,
     /// Remarks that do not reject it (a shape parameter at a bound).
     pub notes: Vec<String>,
     pub evaluations: usize,
@@ -191,7 +213,16 @@ pub struct Candidate {
 }
 
 impl Candidate {
-    fn new(round: usize, effect: &str) -> Self {
+    /// Record a failed test and why.
+    pub fn fail(&mut self, test: &str, why: String) {
+        if !self.failed.iter().any(|t| t == test) {
+            self.failed.push(test.to_string());
+        }
+        self.reasons.push(why);
+    }
+
+    /// A candidate of `round` before any test.
+    pub fn new(round: usize, effect: &str) -> Self {
         Candidate {
             round,
             effect: effect.to_string(),
@@ -202,9 +233,11 @@ impl Candidate {
             heldout_rmse: f64::NAN,
             heldout_gain: f64::NAN,
             floor_ratio: f64::NAN,
+            heldout_relative: f64::NAN,
             gap_explained: 0.0,
             accepted: false,
             reasons: vec![],
+            failed: vec![],
             notes: vec![],
             evaluations: 0,
             fit_message: String::new(),
@@ -318,7 +351,7 @@ pub fn prepare<'a>(
     let short = shorts.into_iter().filter_map(|r| r.ok()).min_by(|a, b| score(a).total_cmp(&score(b)));
     if short.is_none() {
         errors.dedup();
-        cand.reasons.push(format!("fit failed: {}", errors.join("; ")));
+        cand.fail("fit", format!("fit failed: {}", errors.join("; ")));
     }
     let short_dic = match (short.as_ref().and_then(|s| s.short.as_ref()), &current.short) {
         (Some(b), Some(a)) if a.stats.n == b.stats.n => delta_ic(&a.stats.chi2, &b.stats.chi2, &b.stats.n_eff(), added.len() as isize),
@@ -331,6 +364,119 @@ pub fn prepare<'a>(
         }
     }
     Prepared { effects, params, added, problem, short, short_dic, cand }
+}
+
+/// The projected-scan score of `effect` on top of `current` (see the module
+/// header): the best ΔIC over its scan grid, and the number of simulations
+/// run. `jacobian` is [`calibration_jacobian`] of the current model.
+pub fn projected_scan(
+    base: &FlatNetlist,
+    experiments: &[crate::experiment::Experiment],
+    current: &Structure,
+    effect: &dyn Effect,
+    reference: &ProjectionBase,
+    opts: &Options,
+) -> (f64, usize) {
+    let slot = current.effects.len();
+    let mut effects = current.effects.clone();
+    effects.push(effect);
+    let added = effect_params(effect, slot);
+    let mut params = current.params.clone();
+    params.extend(added.iter().cloned());
+    let problem = problem_for(base, experiments, effects, params, opts).truncated(reference.horizon);
+    let mut grid = scan_grid(&effect.params());
+    if added.is_empty() {
+        grid = vec![vec![]];
+    }
+    let scores: Vec<f64> = grid
+        .par_iter()
+        .map(|g| {
+            let mut v = reference.values.clone();
+            v.extend(g.iter().copied());
+            let Ok(r) = problem.residuals(&v) else { return f64::INFINITY };
+            if r.len() != reference.residuals.len() {
+                return f64::INFINITY;
+            }
+            let projected = reference.project(&r);
+            let stats = block_stats(&problem, &projected);
+            delta_ic(&reference.stats.chi2, &stats.chi2, &stats.n_eff(), added.len() as isize)
+        })
+        .collect();
+    (scores.into_iter().fold(f64::INFINITY, f64::min), grid.len())
+}
+
+/// What the projected scan of a round needs from the current model: its
+/// short-record values, residuals and statistics, and the projector onto
+/// its calibration's Jacobian.
+pub struct ProjectionBase {
+    pub horizon: f64,
+    pub values: Vec<f64>,
+    pub residuals: Vec<f64>,
+    pub stats: BlockStats,
+    /// Orthonormal basis of the Jacobian's column space.
+    basis: nalgebra::DMatrix<f64>,
+}
+
+impl ProjectionBase {
+    /// `r` with its component in the calibration's column space removed.
+    pub fn project(&self, r: &[f64]) -> Vec<f64> {
+        let v = nalgebra::DVector::from_column_slice(r);
+        let c = self.basis.transpose() * &v;
+        (v - &self.basis * c).iter().copied().collect()
+    }
+}
+
+/// The projection base of `current` on the screening horizon: residuals at
+/// its short-record optimum and the finite-difference Jacobian of its
+/// calibration there (one simulation per parameter). Returns it and the
+/// simulations run; `None` without a screening horizon or when the
+/// simulation fails.
+pub fn calibration_jacobian(
+    base: &FlatNetlist,
+    experiments: &[crate::experiment::Experiment],
+    current: &Structure,
+    opts: &Options,
+) -> Option<(ProjectionBase, usize)> {
+    // the first short horizon: before position-triggered strokes alias, where
+    // a linear answer of the calibration is a fair stand-in for its refit
+    let horizon = opts.fit.horizons.iter().copied().find(|h| *h > 0.0 && *h < 1.0)?;
+    let values = current.short.as_ref().map_or_else(|| current.fit.values.clone(), |s| s.values.clone());
+    let problem = problem_for(base, experiments, current.effects.clone(), current.params.clone(), opts).truncated(horizon);
+    let r0 = problem.residuals(&values).ok()?;
+    let u: Vec<f64> = problem.params.iter().zip(&values).map(|(p, &v)| p.to_u(v)).collect();
+    let columns: Vec<Option<Vec<f64>>> = (0..u.len())
+        .into_par_iter()
+        .map(|j| {
+            let p = &problem.params[j];
+            let (lo, hi) = (p.to_u(p.lo), p.to_u(p.hi));
+            if lo >= hi {
+                return None;
+            }
+            let step = opts.fit.fd_step * u[j].abs().max(1.0);
+            let h = if u[j] + step <= hi { step } else { -step };
+            let mut uu = u.clone();
+            uu[j] += h;
+            let r = problem.residuals(&problem.values_of(&uu)).ok()?;
+            (r.len() == r0.len()).then(|| r.iter().zip(&r0).map(|(a, b)| (a - b) / h).collect())
+        })
+        .collect();
+    let cols: Vec<Vec<f64>> = columns.into_iter().flatten().collect();
+    let m = r0.len();
+    let basis = if cols.is_empty() {
+        nalgebra::DMatrix::zeros(m, 0)
+    } else {
+        let j = nalgebra::DMatrix::from_fn(m, cols.len(), |r, c| cols[c][r]);
+        let svd = j.svd(true, false);
+        let smax = svd.singular_values.max();
+        let uu = svd.u?;
+        let keep: Vec<usize> = (0..svd.singular_values.len()).filter(|&i| svd.singular_values[i] > 1e-9 * smax).collect();
+        nalgebra::DMatrix::from_fn(m, keep.len(), |r, c| uu[(r, keep[c])])
+    };
+    let mut base = ProjectionBase { horizon, values, residuals: r0, stats: BlockStats { chi2: vec![], n: vec![], tau: vec![] }, basis };
+    // the reference is projected too: the calibration's own linear answer is not the effect's
+    let projected = base.project(&base.residuals);
+    base.stats = block_stats(&problem, &projected);
+    Some((base, 1 + u.len()))
 }
 
 /// Starting points from a scored scan grid (best first; each point is the
@@ -372,7 +518,7 @@ pub fn screened(mut p: Prepared, why: String) -> Candidate {
     p.cand.screened_out = true;
     p.cand.delta_ic = p.short_dic;
     p.cand.fit_message = "screened out after the short-record stages".into();
-    p.cand.reasons.push(why);
+    p.cand.fail("screen", why);
     p.cand
 }
 
@@ -385,6 +531,7 @@ const MAX_RESTARTS: usize = 3;
 pub fn finish<'a>(current: &Structure<'a>, prep: Prepared<'a>, opts: &Options) -> (Option<Structure<'a>>, Candidate) {
     let Prepared { effects, params, added, problem, short, mut cand, .. } = prep;
     let Some(short) = short else { return (None, cand) };
+
     let fit_opts = FitOptions { stage_max_iter: opts.screen_iter, ..opts.fit.clone() };
     let from = short
         .values_short()
@@ -393,7 +540,7 @@ pub fn finish<'a>(current: &Structure<'a>, prep: Prepared<'a>, opts: &Options) -
     let mut f = match fit_once(&problem, &from, &fit_opts) {
         Ok(f) => f,
         Err(e) => {
-            cand.reasons.push(format!("fit failed: {e}"));
+            cand.fail("fit", format!("fit failed: {e}"));
             return (None, cand);
         }
     };
@@ -431,7 +578,7 @@ pub fn finish<'a>(current: &Structure<'a>, prep: Prepared<'a>, opts: &Options) -
     let with_null: Vec<usize> = (first..params.len()).filter(|&i| params[i].null.is_some()).collect();
     if !with_null.is_empty() {
         match &f.std_u {
-            None => cand.reasons.push("parameters not identifiable (singular covariance)".into()),
+            None => cand.fail("parameter", "parameters not identifiable (singular covariance)".into()),
             Some(std) => {
                 let best_z = with_null
                     .iter()
@@ -442,10 +589,13 @@ pub fn finish<'a>(current: &Structure<'a>, prep: Prepared<'a>, opts: &Options) -
                     })
                     .fold(0.0_f64, f64::max);
                 if best_z < th.z_null {
-                    cand.reasons.push(format!(
-                        "parameter within {best_z:.1} standard errors of its null value (needs {}; correlation-aware errors)",
-                        th.z_null
-                    ));
+                    cand.fail(
+                        "parameter",
+                        format!(
+                            "parameter within {best_z:.1} standard errors of its null value (needs {}; correlation-aware errors)",
+                            th.z_null
+                        ),
+                    );
                 }
             }
         }
@@ -456,7 +606,7 @@ pub fn finish<'a>(current: &Structure<'a>, prep: Prepared<'a>, opts: &Options) -
         for (b, ub) in [(p.lo, ulo), (p.hi, uhi)] {
             if (f.u[i] - ub).abs() <= margin && p.null != Some(b) {
                 if p.null.is_some() {
-                    cand.reasons.push(format!("{} at its bound {}", p.name, b));
+                    cand.fail("bound", format!("{} at its bound {}", p.name, b));
                 } else {
                     cand.notes.push(format!("shape parameter {} at its bound {}", p.name, b));
                 }

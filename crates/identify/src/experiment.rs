@@ -5,6 +5,24 @@
 //! Built from a measured table ([`crate::data::Dataset`]) by mapping data
 //! columns to model signals and choosing the time origin; σ is estimated
 //! from the data ([`crate::data::noise_sigma`]) unless given. Units: SI.
+//!
+//! # Sensor priors
+//! Each channel carries the prior of its sensor's errors ([`SensorPrior`]):
+//! a zero-mean Gaussian on the constant offset o [SI] and on the relative
+//! gain error g, from the sensor's specification (the manifest's `sensors`
+//! entry) or, when none is given, from a default per quantity
+//! ([`default_prior`]). The prior σ is the stated accuracy (a datasheet's
+//! "±x" is an error envelope, so taking it as one σ is the cautious
+//! reading: an estimate beyond three of them is a fault of the model, not
+//! of the sensor). Defaults and their sources:
+//!
+//! | quantity (unit) | offset σ | gain σ | source |
+//! |---|---|---|---|
+//! | pressure (Pa) | 0.5 % of full scale | 0.5 % | industrial transducers are specified at 0.25 … 1 % FS (e.g. WIKA A-10: ≤ ±0.5 % of span; Festo SPAN: ±1.5 % FS); full scale = the smallest of the EN 837-1 ranges 1, 1.6, 2.5, 4, 6, 10, 16, 25, 40, 60, 100, 160, 250, 400, 600 bar that holds 1.1 × the largest reading |
+//! | temperature (K) | 1.5 K | — | IEC 60584-1 class 1 thermocouples: ±1.5 K below 375 °C |
+//! | position (m) | 0.1 % of the reading span | — | linear potentiometers and magnetostrictive sensors: 0.02 … 0.1 % FS |
+//! | velocity (m/s) | 1 % of the largest reading | 1 % | |
+//! | anything else | 1 % of the largest reading | — | |
 
 use crate::data::{noise_sigma, Dataset};
 use std::collections::BTreeMap;
@@ -20,6 +38,82 @@ pub struct Channel {
     pub sigma: f64,
     /// Whether `sigma` was estimated from the data (rather than given).
     pub sigma_estimated: bool,
+    /// Prior of the sensor's offset and gain error; `None` until the
+    /// workflow assigns the default of the signal's quantity.
+    pub prior: Option<SensorPrior>,
+}
+
+/// Zero-mean Gaussian prior of a channel's sensor errors (see the module header).
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+pub struct SensorPrior {
+    /// σ of the constant offset [SI]; `f64::INFINITY`: free (no prior); 0: not fitted.
+    pub offset_sd: f64,
+    /// σ of the relative gain error; 0: not fitted.
+    pub gain_sd: f64,
+    /// Where it comes from, for the report ("default for a pressure: 0.5 % of 10 bar").
+    pub source: String,
+}
+
+/// Standard pressure-gauge ranges of EN 837-1 [bar].
+const PRESSURE_RANGES_BAR: [f64; 15] = [1.0, 1.6, 2.5, 4.0, 6.0, 10.0, 16.0, 25.0, 40.0, 60.0, 100.0, 160.0, 250.0, 400.0, 600.0];
+
+/// The smallest standard full scale [Pa] that holds 1.1 × `largest` [Pa].
+pub fn pressure_full_scale(largest: f64) -> f64 {
+    let need = 1.1 * largest.abs() / 1e5;
+    PRESSURE_RANGES_BAR.iter().copied().find(|r| *r >= need).map_or(need.ceil() * 1e5, |r| r * 1e5)
+}
+
+/// The default prior of a channel measuring a quantity of unit `unit` (as
+/// the model records it: "Pa", "K", "m", "m/s", ...), given every value
+/// recorded for that signal (see the module header).
+pub fn default_prior(unit: &str, values: &[f64]) -> SensorPrior {
+    let largest = values.iter().fold(0.0_f64, |m, v| if v.is_finite() { m.max(v.abs()) } else { m });
+    let (lo, hi) = values.iter().filter(|v| v.is_finite()).fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), v| (a.min(*v), b.max(*v)));
+    let span = if hi > lo { hi - lo } else { largest };
+    let floor = |x: f64| if x > 0.0 && x.is_finite() { x } else { f64::INFINITY };
+    match unit {
+        "Pa" => {
+            let fs = pressure_full_scale(largest);
+            SensorPrior {
+                offset_sd: 0.005 * fs,
+                gain_sd: 0.005,
+                source: format!("default for a pressure: 0.5 % of a {} bar full scale, gain 0.5 %", fs / 1e5),
+            }
+        }
+        "K" => SensorPrior { offset_sd: 1.5, gain_sd: 0.0, source: "default for a temperature: 1.5 K (IEC 60584-1 class 1)".into() },
+        "m" => SensorPrior {
+            offset_sd: floor(1e-3 * span),
+            gain_sd: 0.0,
+            source: format!("default for a position: 0.1 % of the {:.4} m span", span),
+        },
+        "m/s" => SensorPrior {
+            offset_sd: floor(0.01 * largest),
+            gain_sd: 0.01,
+            source: "default for a velocity: 1 % of the largest reading, gain 1 %".into(),
+        },
+        _ => {
+            SensorPrior { offset_sd: floor(0.01 * largest), gain_sd: 0.0, source: format!("default ({unit}): 1 % of the largest reading") }
+        }
+    }
+}
+
+/// Give every channel without a prior the default of its quantity;
+/// `unit(signal)` is the unit the model records it in. The values of a
+/// signal are pooled over the experiments (one sensor, one range).
+pub fn assign_default_priors(experiments: &mut [Experiment], unit: impl Fn(&str) -> String) {
+    let mut pooled: BTreeMap<String, Vec<f64>> = BTreeMap::new();
+    for e in experiments.iter() {
+        for c in &e.channels {
+            pooled.entry(c.signal.clone()).or_default().extend(c.values.iter().flatten().copied());
+        }
+    }
+    for e in experiments.iter_mut() {
+        for c in &mut e.channels {
+            if c.prior.is_none() {
+                c.prior = Some(default_prior(&unit(&c.signal), &pooled[&c.signal]));
+            }
+        }
+    }
 }
 
 /// A measured experiment at one operating point.
@@ -92,7 +186,7 @@ impl Experiment {
             if !(sigma > 0.0 && sigma.is_finite()) {
                 return Err(format!("{}: noise of \"{signal}\" must be > 0, got {sigma}", data.origin));
             }
-            channels.push(Channel { signal, values, sigma, sigma_estimated: estimated });
+            channels.push(Channel { signal, values, sigma, sigma_estimated: estimated, prior: None });
         }
         Ok(Experiment { name: name.to_string(), sets, times, channels, time_origin: origin })
     }
@@ -148,6 +242,22 @@ pub(crate) mod tests {
         assert_eq!(e.times.len(), 30);
         let bad: BTreeMap<String, String> = [("nope".to_string(), "head.p".to_string())].into();
         assert!(Experiment::from_dataset("a", &d, Some(&bad), vec![], None, &[]).unwrap_err().contains("nope"));
+    }
+
+    #[test]
+    fn default_priors_follow_the_quantity() {
+        assert_eq!(pressure_full_scale(7.2e5), 10e5);
+        assert_eq!(pressure_full_scale(150e5), 250e5);
+        assert_eq!(pressure_full_scale(5.9e5), 10e5);
+        let p = default_prior("Pa", &[1e5, 7e5]);
+        assert!((p.offset_sd - 5000.0).abs() < 1e-9 && p.gain_sd == 0.005, "{p:?}");
+        let t = default_prior("K", &[290.0, 250.0]);
+        assert_eq!((t.offset_sd, t.gain_sd), (1.5, 0.0));
+        let x = default_prior("m", &[0.0, 0.45]);
+        assert!((x.offset_sd - 4.5e-4).abs() < 1e-12);
+        // a constant channel still gets a finite prior
+        assert!(default_prior("m", &[0.2, 0.2]).offset_sd.is_finite());
+        assert!(default_prior("kg/s", &[0.0]).offset_sd.is_infinite());
     }
 
     #[test]

@@ -166,11 +166,11 @@ pub fn fit_once(problem: &Problem, start: &[f64], opts: &FitOptions) -> Result<F
     }
     let lsq_opts =
         LsqOptions { max_iter: opts.max_iter, ftol: opts.ftol, xtol: 1e-8, gtol: 1e-8, fd_rel_step: opts.fd_step, parallel: opts.parallel };
-    let res = least_squares(f, &u0, &Bounds::new(lo, hi), &lsq_opts).map_err(|e| e.to_string())?;
+    let res = least_squares(f, &u0, &Bounds::new(lo.clone(), hi.clone()), &lsq_opts).map_err(|e| e.to_string())?;
     let values = problem.values_of(&res.x);
     let stats = block_stats(problem, &res.residuals);
     let ranges: Vec<_> = problem.blocks().into_iter().map(|b| b.rows).collect();
-    let cov_u = sandwich_covariance(&res.jacobian, &stats, &ranges);
+    let cov_u = free_covariance(&res.jacobian, &lo, &hi, &stats, &ranges);
     let std_u = cov_u.as_ref().map(|c| (0..c.nrows()).map(|i| c[(i, i)].max(0.0).sqrt()).collect());
     Ok(Fit {
         chi2: 2.0 * res.cost,
@@ -187,6 +187,30 @@ pub fn fit_once(problem: &Problem, start: &[f64], opts: &FitOptions) -> Result<F
         iterations: res.iterations,
         message: res.message,
     })
+}
+
+/// The sandwich covariance over the free coordinates (lo < hi); a held
+/// coordinate (lo = hi) has variance 0 and no covariance.
+fn free_covariance(
+    j: &nalgebra::DMatrix<f64>,
+    lo: &[f64],
+    hi: &[f64],
+    stats: &BlockStats,
+    ranges: &[std::ops::Range<usize>],
+) -> Option<nalgebra::DMatrix<f64>> {
+    let free: Vec<usize> = (0..j.ncols()).filter(|&c| lo[c] < hi[c]).collect();
+    if free.len() == j.ncols() {
+        return sandwich_covariance(j, stats, ranges);
+    }
+    let jf = nalgebra::DMatrix::from_fn(j.nrows(), free.len(), |r, c| j[(r, free[c])]);
+    let cf = sandwich_covariance(&jf, stats, ranges)?;
+    let mut cov = nalgebra::DMatrix::zeros(j.ncols(), j.ncols());
+    for (a, &i) in free.iter().enumerate() {
+        for (b, &k) in free.iter().enumerate() {
+            cov[(i, k)] = cf[(a, b)];
+        }
+    }
+    Some(cov)
 }
 
 /// Block statistics of a residual vector of `problem`.

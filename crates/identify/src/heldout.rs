@@ -16,6 +16,16 @@
 //! The result is kept per block (experiment × channel) so that the
 //! selection can weigh the gain of an effect against what remains.
 //! Cost: one simulation per experiment.
+//!
+//! # A single experiment: a split in time
+//! With one experiment (a vessel's blowdown) there is no operating point
+//! to leave out, so the record is split at half its duration: the first
+//! half is predicted by the model refitted (the same linearised step) on
+//! the second, and the second by the model refitted on the first. The
+//! held-out errors are the two predictions' errors, per channel. A law that
+//! fits the whole record by bending to it predicts one half from the other
+//! worse than the right law does (the early, fast part of a blowdown from
+//! its slow end, and back).
 
 use crate::fit::Fit;
 use crate::problem::Problem;
@@ -62,9 +72,14 @@ impl HeldOut {
 
 /// The Gauss–Newton step that refits on the rows outside `held`.
 fn refit_step(f: &Fit, held: &std::ops::Range<usize>) -> DVector<f64> {
+    refit_step_without(f, &|i| held.contains(&i))
+}
+
+/// The Gauss–Newton step that refits on the rows where `held` is false.
+fn refit_step_without(f: &Fit, held: &dyn Fn(usize) -> bool) -> DVector<f64> {
     let p = f.u.len();
     let m = f.residuals.len();
-    let keep: Vec<usize> = (0..m).filter(|i| !held.contains(i)).collect();
+    let keep: Vec<usize> = (0..m).filter(|&i| !held(i)).collect();
     let j = DMatrix::from_fn(keep.len(), p, |a, b| f.jacobian[(keep[a], b)]);
     let r = DVector::from_fn(keep.len(), |a, _| f.residuals[keep[a]]);
     let a = j.transpose() * &j;
@@ -91,7 +106,13 @@ pub fn leave_one_out(problem: &Problem, f: &Fit) -> Result<HeldOut, String> {
         evaluations: 0,
     };
     let layout = problem.layout();
-    if layout.len() < 2 || f.u.is_empty() {
+    if f.u.is_empty() {
+        return Ok(in_sample());
+    }
+    if layout.len() == 1 {
+        return split_in_time(problem, f, &blocks);
+    }
+    if layout.len() < 2 {
         return Ok(in_sample());
     }
     let lo: Vec<f64> = problem.params.iter().map(|p| p.to_u(p.lo)).collect();
@@ -119,6 +140,52 @@ pub fn leave_one_out(problem: &Problem, f: &Fit) -> Result<HeldOut, String> {
         out.extend(fold?);
     }
     Ok(HeldOut { blocks: out, evaluations: layout.len() })
+}
+
+/// Held-out errors of a single experiment by a split of its record at
+/// half its duration (see the module header).
+fn split_in_time(problem: &Problem, f: &Fit, blocks: &[crate::problem::Block]) -> Result<HeldOut, String> {
+    let k = blocks.first().map_or(0, |b| b.experiment);
+    let e = &problem.experiments[k];
+    let mid = 0.5 * problem.horizon * e.duration();
+    // the time of every data row, in the order of the residual vector
+    let mut late = vec![false; f.residuals.len()];
+    let mut is_data = vec![false; f.residuals.len()];
+    for b in blocks {
+        let ch = &e.channels[b.channel];
+        let times = problem.samples[k].iter().filter(|&&i| ch.values[i].is_some()).map(|&i| e.times[i]);
+        for (row, t) in b.rows.clone().zip(times) {
+            late[row] = t > mid;
+            is_data[row] = true;
+        }
+    }
+    let lo: Vec<f64> = problem.params.iter().map(|p| p.to_u(p.lo)).collect();
+    let hi: Vec<f64> = problem.params.iter().map(|p| p.to_u(p.hi)).collect();
+    let mut out: Vec<HeldBlock> = blocks.iter().map(|b| HeldBlock { experiment: k, channel: b.channel, chi2: 0.0, n: 0 }).collect();
+    // per fold: (block, χ², rows) of the held half
+    type Fold = Result<Vec<(usize, f64, usize)>, String>;
+    let folds: Vec<Fold> = [false, true]
+        .par_iter()
+        .map(|&held_late| {
+            let delta = refit_step_without(f, &|i| is_data[i] && late[i] == held_late);
+            let u: Vec<f64> = (0..f.u.len()).map(|i| (f.u[i] + delta[i]).clamp(lo[i], hi[i])).collect();
+            let result = problem.simulate(k, &problem.values_of(&u), problem.intervals[k])?;
+            let (r, _) = problem.residuals_from(k, &result)?;
+            let mut parts = Vec::new();
+            for (j, b) in blocks.iter().enumerate() {
+                let rows: Vec<usize> = b.rows.clone().filter(|&i| late[i] == held_late).collect();
+                parts.push((j, rows.iter().map(|&i| r[i] * r[i]).sum(), rows.len()));
+            }
+            Ok(parts)
+        })
+        .collect();
+    for fold in folds {
+        for (j, chi2, n) in fold? {
+            out[j].chi2 += chi2;
+            out[j].n += n;
+        }
+    }
+    Ok(HeldOut { blocks: out, evaluations: 2 })
 }
 
 #[cfg(test)]

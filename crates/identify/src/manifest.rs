@@ -14,7 +14,9 @@
 //!   "effects": ["piston_seal_leak", "valve_delay"],
 //!   "max_effects": 2,
 //!   "fit_interval": "4 ms",
-//!   "nuisance": { "offset": true, "gain": false, "skew": "2 ms" }
+//!   "nuisance": { "offset": true, "gain": true, "skew": "1 ms" },
+//!   "sensors": { "tank.T": { "accuracy": "1.5 K" },
+//!                "head.p": { "accuracy": "0.25 %FS", "full_scale": "10 bar", "gain": "0.3 %" } }
 //! }
 //! ```
 //!
@@ -30,9 +32,18 @@
 //! - `effects`, `max_effects`, `fit_interval`: restrict the catalogue, the
 //!   number of effects added (default 2), the spacing of fitted samples.
 //! - `nuisance`: which sensor errors are fitted per experiment and channel
-//!   ([`crate::nuisance`]): `offset` (default true), `gain` (default false),
-//!   and per experiment the bound of the logger time skew, `skew` (default
-//!   2 ms; "0 s" fits none).
+//!   ([`crate::nuisance`]): `offset` (default true), `gain` (default true,
+//!   where the channel's prior has a gain), and per experiment the prior σ
+//!   of the logger time skew, `skew` (default 1 ms; "0 s" fits none).
+//! - `sensors`: the specification of a signal's sensor, the prior of its
+//!   offset and gain ([`crate::experiment::SensorPrior`]; defaults per
+//!   quantity in [`crate::experiment`]): `accuracy`, the offset's σ, as a
+//!   quantity of the signal's dimension ("1.5 K", "5 mbar"; read as a
+//!   difference, so "1.5 degC" is 1.5 K) or as a percentage of the full
+//!   scale ("0.25 %FS", then `full_scale` is required); `gain`, the σ of
+//!   the relative gain error ("0.5 %" or a fraction; default: the
+//!   quantity's default). "free" as `accuracy` leaves the offset without a
+//!   prior (the old behaviour).
 //!
 //! Unknown keys are errors; errors name the file, line and column.
 
@@ -60,6 +71,103 @@ pub struct Manifest {
     pub fit_interval: Option<Value>,
     #[serde(default)]
     pub nuisance: Option<NuisanceSpec>,
+    #[serde(default)]
+    pub sensors: BTreeMap<String, SensorSpec>,
+}
+
+/// One entry of the manifest's `sensors` section.
+#[derive(Debug, Clone, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SensorSpec {
+    pub accuracy: Value,
+    #[serde(default)]
+    pub full_scale: Option<Value>,
+    #[serde(default)]
+    pub gain: Option<Value>,
+}
+
+/// A number followed by a unit, split at the longest numeric prefix
+/// ("0.25 %FS" → (0.25, "%FS"), "1.5K" → (1.5, "K")).
+fn number_and_unit(text: &str) -> Option<(f64, &str)> {
+    let text = text.trim();
+    (1..=text.len())
+        .rev()
+        .filter(|&i| text.is_char_boundary(i))
+        .find_map(|i| text[..i].trim().parse::<f64>().ok().map(|x| (x, text[i..].trim())))
+}
+
+/// SI size of a difference written with a unit of dimension `dim` (the
+/// unit's offset ignored: "1.5 degC" is 1.5 K, "0.1 barg" is 0.1 bar).
+fn difference(value: &Value, dim: units::Dimension, what: &str) -> Result<f64, String> {
+    match value {
+        Value::Number(x) => Ok(*x),
+        Value::Text(t) => {
+            let (x, unit) = number_and_unit(t).ok_or_else(|| format!("{what} = \"{t}\": expected a number and a unit"))?;
+            if unit.is_empty() {
+                return Ok(x);
+            }
+            let u = units::parse_unit(unit).map_err(|e| format!("{what} = \"{t}\": {e}"))?;
+            if u.dimension != dim {
+                return Err(format!("{what} = \"{t}\": the unit \"{unit}\" does not measure the signal's quantity"));
+            }
+            Ok(x * u.factor)
+        }
+        Value::List(_) => Err(format!("{what}: expected a single value")),
+    }
+}
+
+/// The prior of one `sensors` entry for a signal of dimension `dim`;
+/// `default` is the quantity's default (its gain is kept unless given).
+pub fn sensor_prior(
+    signal: &str,
+    spec: &SensorSpec,
+    dim: units::Dimension,
+    default: &crate::experiment::SensorPrior,
+) -> Result<crate::experiment::SensorPrior, String> {
+    let what = format!("sensors \"{signal}\".accuracy");
+    let (offset_sd, text) = match &spec.accuracy {
+        Value::Text(t) if t.trim().eq_ignore_ascii_case("free") => (f64::INFINITY, "free offset".to_string()),
+        Value::Text(t) if t.trim().to_ascii_uppercase().ends_with("%FS") => {
+            let (x, _) = number_and_unit(t).ok_or_else(|| format!("{what} = \"{t}\": expected a percentage of full scale"))?;
+            let fs =
+                spec.full_scale.as_ref().ok_or_else(|| format!("{what} = \"{t}\" is relative to the full scale: give \"full_scale\""))?;
+            let fs = difference(fs, dim, &format!("sensors \"{signal}\".full_scale"))?;
+            if !(fs > 0.0 && fs.is_finite()) {
+                return Err(format!("sensors \"{signal}\".full_scale must be positive, got {fs}"));
+            }
+            (x / 100.0 * fs, format!("{t} of {}", crate::params::significant(fs, 3)))
+        }
+        v => {
+            let x = difference(v, dim, &what)?;
+            (x, crate::params::significant(x, 3))
+        }
+    };
+    if offset_sd.is_nan() || offset_sd <= 0.0 {
+        return Err(format!("{what} must be positive, got {offset_sd}"));
+    }
+    let gain_sd = match &spec.gain {
+        None => default.gain_sd,
+        Some(v) => {
+            let g = match v {
+                Value::Number(x) => *x,
+                Value::Text(t) => match number_and_unit(t) {
+                    Some((x, "%")) => x / 100.0,
+                    Some((x, "")) => x,
+                    _ => return Err(format!("sensors \"{signal}\".gain = \"{t}\": expected a percentage (\"0.5 %\") or a fraction")),
+                },
+                Value::List(_) => return Err(format!("sensors \"{signal}\".gain: expected a single value")),
+            };
+            if !(0.0..1.0).contains(&g) {
+                return Err(format!("sensors \"{signal}\".gain must be a fraction in [0, 1), got {g}"));
+            }
+            g
+        }
+    };
+    Ok(crate::experiment::SensorPrior {
+        offset_sd,
+        gain_sd,
+        source: format!("manifest: accuracy {text} SI, gain {}", crate::params::significant(gain_sd, 3)),
+    })
 }
 
 /// The manifest's `nuisance` entry.
@@ -196,6 +304,18 @@ fn resolve_unescaped(m: &Manifest, flat: &graph::FlatNetlist, read: &ReadData) -
         }
         experiments.push(e);
     }
+    // sensor priors: the quantity's default, replaced where the manifest gives a specification
+    crate::experiment::assign_default_priors(&mut experiments, |s| units.get(s).cloned().unwrap_or_default());
+    for (signal, spec) in &m.sensors {
+        let unit = units.get(signal).ok_or_else(|| format!("sensors: \"{signal}\" is not a signal of the model"))?;
+        let dim = units::parse_unit(unit).map(|u| u.dimension).unwrap_or(units::dim::DIMENSIONLESS);
+        for e in &mut experiments {
+            for c in e.channels.iter_mut().filter(|c| &c.signal == signal) {
+                let default = c.prior.clone().unwrap_or_else(|| crate::experiment::default_prior(unit, &[]));
+                c.prior = Some(sensor_prior(signal, spec, dim, &default)?);
+            }
+        }
+    }
     let calibrate = match &m.calibrate {
         None => crate::params::default_calibration(flat),
         Some(map) => map
@@ -207,7 +327,7 @@ fn resolve_unescaped(m: &Manifest, flat: &graph::FlatNetlist, read: &ReadData) -
                 if lo.partial_cmp(&hi) != Some(std::cmp::Ordering::Less) {
                     return Err(format!("calibrate \"{target}\": lower bound {lo} is not below upper bound {hi}"));
                 }
-                Ok(crate::params::CalibSpec { target: target.clone(), bounds: Some((lo, hi)) })
+                Ok(crate::params::CalibSpec { target: target.clone(), bounds: Some((lo, hi)), prior: None })
             })
             .collect::<Result<Vec<_>, String>>()?,
     };
@@ -328,5 +448,43 @@ mod tests {
         .unwrap();
         let err = resolve(&bad, &flat, &read).unwrap_err();
         assert!(err.contains("friction.k0") && err.contains("not below"), "{err}");
+    }
+
+    #[test]
+    fn sensor_specifications_become_priors() {
+        let flat = crate::netlist_edit::tests_support::meter_out();
+        let csv: String = std::iter::once("t,p1,x\n".to_string())
+            .chain((0..50).map(|i| format!("{},{},{}\n", i as f64 * 1e-3, 4e5 + i as f64, 0.001 * i as f64)))
+            .collect();
+        let read = |_: &str| -> Result<(String, String), String> { Ok((csv.clone(), "a.csv".into())) };
+        let with = |sensors: &str| {
+            let text = format!(
+                r#"{{ "experiments": [ {{ "data": "a.csv", "columns": {{ "p1": "head.p", "x": "piston.x" }} }} ], "sensors": {sensors} }}"#
+            );
+            resolve(&parse(&text, "m.json").unwrap(), &flat, &read)
+        };
+        // 0.25 % of a 10 bar full scale is 2500 Pa; the gain given in percent
+        let r = with(r#"{ "head.p": { "accuracy": "0.25 %FS", "full_scale": "10 bar", "gain": "0.3 %" } }"#).unwrap();
+        let p = r.experiments[0].channels[0].prior.clone().unwrap();
+        assert!((p.offset_sd - 2500.0).abs() < 1e-9 && (p.gain_sd - 0.003).abs() < 1e-15, "{p:?}");
+        // the unlisted channel keeps its quantity's default (0.1 % of the 49 mm span)
+        let x = r.experiments[0].channels[1].prior.clone().unwrap();
+        assert!((x.offset_sd - 0.049e-3).abs() < 1e-12, "{x:?}");
+        // an absolute accuracy is a difference; the gain default of a pressure stays
+        let p = with(r#"{ "head.p": { "accuracy": "5 mbar" } }"#).unwrap().experiments[0].channels[0].prior.clone().unwrap();
+        assert!((p.offset_sd - 500.0).abs() < 1e-9 && (p.gain_sd - 0.005).abs() < 1e-15, "{p:?}");
+        let p = with(r#"{ "head.p": { "accuracy": "free" } }"#).unwrap().experiments[0].channels[0].prior.clone().unwrap();
+        assert!(p.offset_sd.is_infinite());
+        // refusals name the signal and the reason
+        for (bad, words) in [
+            (r#"{ "head.p": { "accuracy": "0.25 %FS" } }"#, "full_scale"),
+            (r#"{ "head.p": { "accuracy": "1.5 K" } }"#, "quantity"),
+            (r#"{ "head.p": { "accuracy": "-5 mbar" } }"#, "positive"),
+            (r#"{ "head.p": { "accuracy": "5 mbar", "gain": "120 %" } }"#, "fraction"),
+            (r#"{ "head.q": { "accuracy": "5 mbar" } }"#, "not a signal"),
+        ] {
+            let err = with(bad).unwrap_err();
+            assert!(err.contains(words), "{bad}: {err}");
+        }
     }
 }

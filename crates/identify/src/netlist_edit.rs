@@ -178,6 +178,10 @@ pub struct Topology {
     pub throttles: Vec<String>,
     /// Signal output driving the valve command ("controller.command").
     pub command: Option<String>,
+    /// Rigid vessels: chambers whose piston port is not wired.
+    pub vessels: Vec<String>,
+    /// ISO 6358 restrictions (`conductance` blocks).
+    pub restrictions: Vec<String>,
 }
 
 impl Topology {
@@ -194,6 +198,8 @@ impl Topology {
                         *slot = Some(c.id.clone());
                     }
                 }
+                "chamber" => t.vessels.push(c.id.clone()),
+                "conductance" => t.restrictions.push(c.id.clone()),
                 "piston" if t.piston.is_none() => t.piston = Some(c.id.clone()),
                 "friction" if t.friction.is_none() => t.friction = Some(c.id.clone()),
                 "speed_control_valve" => t.throttles.push(c.id.clone()),

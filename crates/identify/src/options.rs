@@ -105,6 +105,13 @@ pub struct Options {
     pub screen_relative: f64,
     /// … and only the best `screen_keep` candidates of a round do.
     pub screen_keep: usize,
+    /// Only the best this many candidates of the projected scan
+    /// ([`crate::candidates::projected_scan`]), and only those whose score
+    /// is below 0, are prepared at all; 0 (the default) = no projected scan,
+    /// every candidate is prepared. Opt-in: on the nominal dead-volume case
+    /// it ranked `dead_volume` fifth of six with a positive score and so
+    /// pruned the right answer (docs/discrepancy.md).
+    pub screen_prepare: usize,
     pub progress: Progress,
 }
 
@@ -123,6 +130,7 @@ impl Default for Options {
             starts: 2,
             screen_relative: 0.2,
             screen_keep: 3,
+            screen_prepare: 0,
             progress: Progress::default(),
         }
     }

@@ -11,6 +11,13 @@
 //! (e.g. one throttle setting per experiment) are fitted once per distinct
 //! setting, each applying to the experiments with that setting.
 //!
+//! # Priors
+//! A parameter may carry a Gaussian prior ([`Prior`]; on ln θ for a
+//! logarithmic coordinate): the fit then minimises the posterior, with the
+//! row (θ − μ)/s appended to the residual vector ([`crate::problem`]). The
+//! form parameters of the default calibration have priors (see
+//! [`default_calibration`]); a manifest may give any target one.
+//!
 //! Units: values and bounds SI; `unit` is only the unit shown to people.
 
 use crate::effects::{Effect, Scale};
@@ -44,6 +51,17 @@ pub struct FitParam {
     /// Null value of an effect parameter.
     pub null: Option<f64>,
     pub target: Target,
+    /// Gaussian prior, if any.
+    pub prior: Option<Prior>,
+}
+
+/// A Gaussian prior of a parameter: θ ~ N(center, sd²) on a linear
+/// coordinate, ln θ ~ N(ln center, (sd/center)²) on a logarithmic one
+/// (`sd` is then the relative spread at the center). SI.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Prior {
+    pub center: f64,
+    pub sd: f64,
 }
 
 impl FitParam {
@@ -65,37 +83,155 @@ impl FitParam {
     pub fn is_effect(&self) -> bool {
         matches!(self.target, Target::Effect { .. })
     }
+    /// The prior row of an SI value (see [`Prior`]); `None` without a prior.
+    pub fn prior_row(&self, v: f64) -> Option<f64> {
+        let p = self.prior?;
+        Some(match self.scale {
+            Scale::Linear => (v - p.center) / p.sd,
+            Scale::Log => (v.max(f64::MIN_POSITIVE) / p.center).ln() / (p.sd / p.center),
+        })
+    }
 }
 
-/// A calibration target with optional bounds (SI).
+/// A calibration target with optional bounds and prior (SI).
 #[derive(Debug, Clone, PartialEq)]
 pub struct CalibSpec {
     pub target: String,
     pub bounds: Option<(f64, f64)>,
+    pub prior: Option<Prior>,
 }
 
-/// The default calibration set of a cylinder circuit: Coulomb and viscous
-/// friction at zero pressure (k0, k2), every throttle's C and the
-/// directional valve's C (see docs/discrepancy.md for the reasons).
-/// Parameters that are zero in the netlist are skipped (no scale to fit on).
+impl CalibSpec {
+    /// A target with default bounds and no prior.
+    pub fn plain(target: &str) -> Self {
+        CalibSpec { target: target.to_string(), bounds: None, prior: None }
+    }
+}
+
+/// Prior σ of an ISO 6358 subsonic index m around the netlist's value
+/// (ISO 6358-1:2013 introduced m because measured characteristics are not
+/// the ellipse quarter m = ½; values of 0.3 … 0.7 are reported for valves
+/// and fittings).
+pub const SUBSONIC_INDEX_SD: f64 = 0.1;
+/// Bounds of a calibrated subsonic index.
+pub const SUBSONIC_INDEX_BOUNDS: (f64, f64) = (0.25, 0.85);
+/// Prior σ [Pa] and upper bound of a check valve's cracking pressure
+/// (speed-control valves are catalogued at 0.1 … 0.5 bar, or "free flow").
+pub const CRACKING_SD: f64 = 0.2e5;
+pub const CRACKING_MAX: f64 = 1.0e5;
+
+/// The default calibration set of a cylinder circuit (docs/discrepancy.md
+/// gives the reasons):
+/// - Coulomb and viscous friction at zero pressure (k0, k2), bounds
+///   [value/3, 3·value], no prior;
+/// - every throttle's C and the directional valve's C, likewise;
+/// - the form parameters an engineer never knows exactly, with priors
+///   around the netlist's value: the ISO 6358 subsonic index m of every
+///   throttle and of the directional valve (σ 0.1, [`SUBSONIC_INDEX_SD`]),
+///   and the cracking pressure of every throttle's check valve (σ 0.2 bar,
+///   [`CRACKING_SD`], in [0, 1 bar]).
+///
+/// Parameters that are zero in the netlist are skipped where they need a
+/// scale (k0, k2, C).
 pub fn default_calibration(flat: &FlatNetlist) -> Vec<CalibSpec> {
     let topo = crate::netlist_edit::Topology::of(flat);
-    let mut targets = Vec::new();
+    let mut scaled = Vec::new();
     if let Some(f) = &topo.friction {
-        targets.push(format!("{f}.k0"));
-        targets.push(format!("{f}.k2"));
+        scaled.push(format!("{f}.k0"));
+        scaled.push(format!("{f}.k2"));
     }
     for t in &topo.throttles {
-        targets.push(format!("{t}.C"));
+        scaled.push(format!("{t}.C"));
     }
     if let Some(v) = &topo.valve {
-        targets.push(format!("{v}.C"));
+        scaled.push(format!("{v}.C"));
     }
-    targets
-        .into_iter()
-        .filter(|t| split_target(t).ok().and_then(|(id, p)| param_si(flat, id, p).ok()).is_some_and(|v| v > 0.0))
-        .map(|target| CalibSpec { target, bounds: None })
-        .collect()
+    let value = |t: &str| split_target(t).ok().and_then(|(id, p)| param_si(flat, id, p).ok());
+    let mut out: Vec<CalibSpec> =
+        scaled.into_iter().filter(|t| value(t).is_some_and(|v| v > 0.0)).map(|target| CalibSpec::plain(&target)).collect();
+    let index = |id: &str| -> Option<CalibSpec> {
+        let target = format!("{id}.m");
+        let v = value(&target)?;
+        Some(CalibSpec {
+            target,
+            bounds: Some(SUBSONIC_INDEX_BOUNDS),
+            prior: Some(Prior { center: v.clamp(SUBSONIC_INDEX_BOUNDS.0, SUBSONIC_INDEX_BOUNDS.1), sd: SUBSONIC_INDEX_SD }),
+        })
+    };
+    for t in &topo.throttles {
+        out.extend(index(t));
+        let target = format!("{t}.cracking_pressure");
+        if let Some(v) = value(&target) {
+            out.push(CalibSpec { target, bounds: Some((0.0, CRACKING_MAX.max(v))), prior: Some(Prior { center: v, sd: CRACKING_SD }) });
+        }
+    }
+    if let Some(v) = &topo.valve {
+        out.extend(index(v));
+    }
+    // a vessel test (no cylinder): every restriction's C, and its b and m with priors
+    if topo.piston.is_none() && !topo.vessels.is_empty() {
+        for r in &topo.restrictions {
+            let c = format!("{r}.C");
+            if value(&c).is_some_and(|v| v > 0.0) {
+                out.push(CalibSpec::plain(&c));
+            }
+            let b = format!("{r}.b");
+            if let Some(v) = value(&b) {
+                out.push(CalibSpec {
+                    target: b,
+                    bounds: Some(CRITICAL_RATIO_BOUNDS),
+                    prior: Some(Prior { center: v.clamp(CRITICAL_RATIO_BOUNDS.0, CRITICAL_RATIO_BOUNDS.1), sd: CRITICAL_RATIO_SD }),
+                });
+            }
+            out.extend(index(r));
+        }
+    }
+    out
+}
+
+/// Prior σ and bounds of a calibrated ISO 6358 critical ratio b of a vessel
+/// test's restriction (the paper's valves have 0.3; ISO 6358 values of
+/// orifices and valves range over 0.1 … 0.6).
+pub const CRITICAL_RATIO_SD: f64 = 0.15;
+pub const CRITICAL_RATIO_BOUNDS: (f64, f64) = (0.05, 0.9);
+
+/// The initial state of every rigid vessel whose pressure or temperature
+/// is measured, one parameter per experiment: "the data's first samples fix
+/// the initial state". p0 (T0) starts at the mean of the channel's first
+/// three samples, with a prior there of σ = the sensor's offset prior (a
+/// sensor offset and a wrong initial state are otherwise the same thing at
+/// t = 0), bounded at ±6 σ. Without them the sensor offsets would have to
+/// absorb a netlist initial state that differs from the rig's.
+pub fn initial_state_params(flat: &FlatNetlist, experiments: &[Experiment]) -> Vec<FitParam> {
+    let topo = crate::netlist_edit::Topology::of(flat);
+    let mut out = Vec::new();
+    for v in &topo.vessels {
+        for (signal, param, unit) in [("p", "p0", "bar"), ("T", "T0", "K")] {
+            for (k, e) in experiments.iter().enumerate() {
+                let Some(ch) = e.channels.iter().find(|c| c.signal == format!("{v}.{signal}")) else { continue };
+                let first: Vec<f64> = ch.values.iter().flatten().take(3).copied().collect();
+                if first.is_empty() {
+                    continue;
+                }
+                let center = first.iter().sum::<f64>() / first.len() as f64;
+                let sd = ch.prior.as_ref().map(|p| p.offset_sd).filter(|s| s.is_finite() && *s > 0.0).unwrap_or(ch.sigma).max(ch.sigma);
+                let (lo, hi) = ((center - 6.0 * sd).max(1e-3 * center.abs()), center + 6.0 * sd);
+                out.push(FitParam {
+                    name: if experiments.len() == 1 { format!("{v}.{param}") } else { format!("{v}.{param}@{}", e.name) },
+                    unit: unit.to_string(),
+                    lo,
+                    hi,
+                    start: center,
+                    typical: sd.max(1e-12),
+                    scale: Scale::Linear,
+                    null: None,
+                    target: Target::Netlist { id: v.clone(), param: param.to_string(), experiments: Some(vec![k]) },
+                    prior: Some(Prior { center, sd }),
+                });
+            }
+        }
+    }
+    out
 }
 
 /// Turn calibration targets into fit parameters, one per distinct setting
@@ -135,7 +271,8 @@ pub fn calibration_params(flat: &FlatNetlist, experiments: &[Experiment], specs:
                 return Err(format!("calibrate {}: bounds [{lo}, {hi}] are not an interval", spec.target));
             }
             let start = v.clamp(lo, hi);
-            let (scale, typical) = if lo > 0.0 { (Scale::Log, start) } else { (Scale::Linear, start.abs().max((hi - lo) / 10.0)) };
+            let (scale, typical) =
+                if lo > 0.0 && spec.prior.is_none() { (Scale::Log, start) } else { (Scale::Linear, start.abs().max((hi - lo) / 10.0)) };
             let name = if single {
                 spec.target.clone()
             } else if label.is_empty() {
@@ -163,6 +300,7 @@ pub fn calibration_params(flat: &FlatNetlist, experiments: &[Experiment], specs:
                     param: param.to_string(),
                     experiments: if single { None } else { Some(members) },
                 },
+                prior: spec.prior,
             });
         }
     }
@@ -200,6 +338,7 @@ pub fn effect_params(effect: &dyn Effect, slot: usize) -> Vec<FitParam> {
             scale: p.scale,
             null: p.null,
             target: Target::Effect { slot, k },
+            prior: None,
         })
         .collect()
 }
@@ -218,10 +357,8 @@ mod tests {
             Experiment::from_dataset("e", &d, None, vec![format!("flow_control.C={c}"), "supply.p=4 bar".into()], None, &[]).unwrap()
         };
         let exps = vec![mk("13.2 L/min/bar"), mk("26 L/min/bar"), mk("13.2 L/min/bar")];
-        let specs = vec![
-            CalibSpec { target: "flow_control.C".into(), bounds: None },
-            CalibSpec { target: "friction.k0".into(), bounds: Some((1.0, 60.0)) },
-        ];
+        let specs =
+            vec![CalibSpec::plain("flow_control.C"), CalibSpec { target: "friction.k0".into(), bounds: Some((1.0, 60.0)), prior: None }];
         let ps = calibration_params(&flat, &exps, &specs).unwrap();
         assert_eq!(ps.len(), 3);
         assert_eq!(ps[0].name, "flow_control.C@13.2 L/min/bar");
@@ -231,7 +368,7 @@ mod tests {
         // log coordinate round trip, and linear for a bound at zero
         let p = &ps[2];
         assert!((p.from_u(p.to_u(33.0)) - 33.0).abs() < 1e-12);
-        let specs = vec![CalibSpec { target: "friction.k0".into(), bounds: Some((0.0, 60.0)) }];
+        let specs = vec![CalibSpec { target: "friction.k0".into(), bounds: Some((0.0, 60.0)), prior: None }];
         let q = &calibration_params(&flat, &exps, &specs).unwrap()[0];
         assert_eq!(q.scale, Scale::Linear);
         assert!((q.from_u(q.to_u(12.0)) - 12.0).abs() < 1e-12);
@@ -248,14 +385,29 @@ mod tests {
         let d = dataset(&["head.p"], 20);
         let e = Experiment::from_dataset("e", &d, None, vec!["flow_control.C=4.4e-9".into()], None, &[]).unwrap();
         let f = Experiment::from_dataset("f", &d, None, vec!["flow_control.C=13.2 L/min/bar".into()], None, &[]).unwrap();
-        let ps = calibration_params(&flat, &[e, f], &[CalibSpec { target: "flow_control.C".into(), bounds: None }]).unwrap();
+        let ps = calibration_params(&flat, &[e, f], &[CalibSpec::plain("flow_control.C")]).unwrap();
         assert_eq!(ps[0].name, "flow_control.C@26.4 L/min/bar");
         assert_eq!(ps[1].name, "flow_control.C@13.2 L/min/bar");
     }
 
     #[test]
     fn default_calibration_of_meter_out() {
-        let names: Vec<String> = default_calibration(&meter_out()).into_iter().map(|c| c.target).collect();
-        assert_eq!(names, vec!["friction.k0", "friction.k2", "flow_control.C", "dcv.C"]);
+        let specs = default_calibration(&meter_out());
+        let names: Vec<&str> = specs.iter().map(|c| c.target.as_str()).collect();
+        assert_eq!(
+            names,
+            vec!["friction.k0", "friction.k2", "flow_control.C", "dcv.C", "flow_control.m", "flow_control.cracking_pressure", "dcv.m"]
+        );
+        let m = &specs[4];
+        assert_eq!(m.prior, Some(Prior { center: 0.5, sd: SUBSONIC_INDEX_SD }));
+        // a prior is a row of the residual vector: 0 at the center, 1 one σ away
+        let d = dataset(&["head.p"], 20);
+        let e = Experiment::from_dataset("e", &d, None, vec![], None, &[]).unwrap();
+        let ps = calibration_params(&meter_out(), &[e], &specs).unwrap();
+        let pm = ps.iter().find(|p| p.name == "flow_control.m").unwrap();
+        assert_eq!(pm.scale, Scale::Linear);
+        assert_eq!(pm.prior_row(0.5), Some(0.0));
+        assert!((pm.prior_row(0.6).unwrap() - 1.0).abs() < 1e-12);
+        assert_eq!(ps[0].prior_row(10.0), None);
     }
 }

@@ -13,6 +13,11 @@
 //! - `rest`: everything else (before the first command, dwells at the ends).
 //!
 //! Units: s, m. Assumes one cylinder and a two-level command (0/1).
+//!
+//! A circuit without a cylinder (a vessel's blowdown or filling) has its
+//! own phases, from the simulated pressure of its first vessel
+//! ([`classify_vessel`]): `charge` and `discharge` while the pressure
+//! moves faster than 1 % of its fastest rate, `hold` otherwise.
 
 use serde::Serialize;
 
@@ -30,10 +35,17 @@ pub enum Phase {
     Steady,
     EndOfStroke,
     Rest,
+    /// A vessel filling.
+    Charge,
+    /// A vessel emptying.
+    Discharge,
+    /// A vessel whose pressure stands (nearly) still.
+    Hold,
 }
 
 impl Phase {
-    pub const ALL: [Phase; 5] = [Phase::Switching, Phase::Breakaway, Phase::Steady, Phase::EndOfStroke, Phase::Rest];
+    pub const ALL: [Phase; 8] =
+        [Phase::Switching, Phase::Breakaway, Phase::Steady, Phase::EndOfStroke, Phase::Rest, Phase::Charge, Phase::Discharge, Phase::Hold];
     pub fn name(self) -> &'static str {
         match self {
             Phase::Switching => "switching",
@@ -41,6 +53,9 @@ impl Phase {
             Phase::Steady => "steady",
             Phase::EndOfStroke => "end_of_stroke",
             Phase::Rest => "rest",
+            Phase::Charge => "charge",
+            Phase::Discharge => "discharge",
+            Phase::Hold => "hold",
         }
     }
 }
@@ -107,9 +122,55 @@ pub fn classify(times: &[f64], command: &[f64], x: &[f64], stroke: f64) -> Vec<P
     out
 }
 
+/// Phases of a vessel test from its pressure `p` at `times` (see the module header).
+pub fn classify_vessel(times: &[f64], p: &[f64]) -> Vec<Phase> {
+    let n = times.len().min(p.len());
+    let rate: Vec<f64> = (0..n)
+        .map(|i| {
+            let (a, b) = (i.saturating_sub(1), (i + 1).min(n.saturating_sub(1)));
+            let dt = times[b] - times[a];
+            if dt > 0.0 {
+                (p[b] - p[a]) / dt
+            } else {
+                0.0
+            }
+        })
+        .collect();
+    let fastest = rate.iter().fold(0.0_f64, |m, r| m.max(r.abs()));
+    let mut out: Vec<Phase> = rate
+        .iter()
+        .map(|&r| {
+            if fastest > 0.0 && r.abs() > 0.01 * fastest {
+                if r > 0.0 {
+                    Phase::Charge
+                } else {
+                    Phase::Discharge
+                }
+            } else {
+                Phase::Hold
+            }
+        })
+        .collect();
+    out.resize(times.len(), Phase::Hold);
+    out
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_blowdown_discharges_then_holds() {
+        let times: Vec<f64> = (0..1000).map(|i| i as f64 * 0.01).collect();
+        let p: Vec<f64> = times.iter().map(|&t| if t < 1.0 { 1e5 } else { 1e5 + 6e5 * (-(t - 1.0) / 0.5).exp() }).collect();
+        let p: Vec<f64> = p.iter().zip(&times).map(|(v, &t)| if t < 1.0 { 7e5 } else { *v }).collect();
+        let ph = classify_vessel(&times, &p);
+        assert_eq!(ph[50], Phase::Hold);
+        assert_eq!(ph[120], Phase::Discharge);
+        assert_eq!(ph[900], Phase::Hold);
+        let rising: Vec<f64> = p.iter().map(|v| 8e5 - v).collect();
+        assert_eq!(classify_vessel(&times, &rising)[120], Phase::Charge);
+    }
 
     #[test]
     fn a_synthetic_cycle_is_cut_where_expected() {

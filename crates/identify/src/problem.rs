@@ -10,12 +10,22 @@
 //! operating point, linearly interpolated at t_i − δ_k from the simulation's
 //! output grid, σ_kc the channel's noise level ([`crate::data::noise_sigma`],
 //! or given), o, g the sensor offset and gain error and δ_k the
-//! experiment's logger time skew, all set to their least-squares values for
-//! every simulation ([`crate::nuisance`]). Missing samples are
-//! left out; a sample the simulation leaves undefined counts as zero.
-//! Minimising ½Σr² is maximum likelihood for white Gaussian sensor noise;
-//! how the residual correlation that remains is accounted for is in
+//! experiment's logger time skew, all set to their MAP values under the
+//! channels' priors for every simulation ([`crate::nuisance`]). Missing
+//! samples are left out; a sample the simulation leaves undefined counts as
+//! zero. Minimising ½Σr² is maximum likelihood for white Gaussian sensor
+//! noise; how the residual correlation that remains is accounted for is in
 //! [`crate::stats`].
+//!
+//! # Prior rows
+//! The priors are rows of the residual vector too, so that the fit
+//! minimises the posterior: after the data rows of experiment k come its
+//! sensors' prior rows (o/σ_o, g/σ_g of each channel that has them, then
+//! δ_k/σ_δ), and after every experiment the rows (θ − μ)/s of the
+//! calibration parameters with a prior ([`crate::params::FitParam::prior`]).
+//! [`Problem::blocks`] holds the data rows only (the statistics of
+//! [`crate::stats`] are about data); [`Problem::layout`] gives each
+//! experiment's data and prior rows.
 //!
 //! # Order of netlist edits for one experiment
 //! the experiment's `set` list → calibration values → effects in order.
@@ -162,41 +172,67 @@ impl<'a> Problem<'a> {
         Ok(flat)
     }
 
-    /// Simulate experiment k with output every `interval` seconds.
+    /// Simulate experiment k with output every `interval` seconds (at the
+    /// data's own interval at most while a skew is fitted: the shifted
+    /// samples are read between output points by a cubic curve, whose
+    /// error at a valve's pressure edge on a 4 ms grid biased the skew by
+    /// half a millisecond).
     pub fn simulate(&self, k: usize, values: &[f64], interval: f64) -> Result<solve::SimResult, String> {
         let flat = self.netlist(k, values)?;
-        let skew = if self.sensors.fits_skew() { self.sensors.skew } else { 0.0 };
-        simulate_netlist(&flat, self.horizon * self.experiments[k].duration() + skew, interval, &self.settings)
+        let e = &self.experiments[k];
+        let interval = if self.sensors.fits_skew() { interval.min(e.median_interval()) } else { interval };
+        simulate_netlist(&flat, self.horizon * e.duration() + self.sensors.skew_bound(), interval, &self.settings)
     }
 
-    /// Residuals of experiment k at its fitted samples, from a simulation
-    /// `result` of it, and the sensor errors fitted per channel.
+    /// Rows of experiment k at its fitted samples from a simulation
+    /// `result` of it — the data rows of each channel in turn, then the
+    /// experiment's sensor prior rows (see the module header) — and the
+    /// sensor errors fitted per channel.
     pub fn residuals_from(&self, k: usize, result: &solve::SimResult) -> Result<(Vec<f64>, Vec<SensorFit>), String> {
         let e = &self.experiments[k];
-        let (pred, _) = Sampler::new(result, e, &self.samples[k])?.best(&self.sensors);
+        let (pred, skew) = Sampler::new(result, e, &self.samples[k])?.best(&self.sensors);
         let mut r = Vec::new();
         let mut fits = Vec::new();
         for (ch, sim) in e.channels.iter().zip(&pred) {
-            let (rows, fit) = channel_residuals(&ch.values, &self.samples[k], sim, ch.sigma, &self.sensors);
+            let (so, sg) = self.sensors.effective(ch.prior.as_ref());
+            let (rows, fit) = channel_residuals(&ch.values, &self.samples[k], sim, ch.sigma, so, sg);
             r.extend(rows);
             fits.push(fit);
+        }
+        r.extend(fits.iter().flat_map(|f| f.prior_rows()));
+        if self.sensors.fits_skew() {
+            r.push(skew / self.sensors.skew);
         }
         Ok((r, fits))
     }
 
-    /// Residuals of experiment k at its fitted samples.
+    /// Rows of experiment k (data and sensor priors) for SI parameter values.
     pub fn residuals_of(&self, k: usize, values: &[f64]) -> Result<Vec<f64>, String> {
         let result = self.simulate(k, values, self.intervals[k])?;
         Ok(self.residuals_from(k, &result)?.0)
     }
 
-    /// The residual vector for SI values.
+    /// The residual vector for SI values: every included experiment's rows,
+    /// then the calibration parameters' prior rows.
     pub fn residuals(&self, values: &[f64]) -> Result<Vec<f64>, String> {
         let parts: Vec<Vec<f64>> = self.included().par_iter().map(|&k| self.residuals_of(k, values)).collect::<Result<_, _>>()?;
-        Ok(parts.concat())
+        let mut r = parts.concat();
+        r.extend(self.param_prior_rows(values));
+        Ok(r)
     }
 
-    /// Row blocks (experiment × channel) of the residual vector.
+    /// (θ − μ)/s of every parameter with a prior, in order.
+    pub fn param_prior_rows<'v>(&'v self, values: &'v [f64]) -> impl Iterator<Item = f64> + 'v {
+        self.params.iter().zip(values).filter_map(|(p, v)| p.prior_row(*v))
+    }
+
+    /// Number of sensor prior rows of experiment k.
+    pub fn sensor_prior_rows(&self, k: usize) -> usize {
+        let e = &self.experiments[k];
+        e.channels.iter().map(|c| self.sensors.rows_per_channel(c.prior.as_ref())).sum::<usize>() + usize::from(self.sensors.fits_skew())
+    }
+
+    /// Row blocks (experiment × channel) of the data rows of the residual vector.
     pub fn blocks(&self) -> Vec<Block> {
         let mut at = 0;
         let mut out = Vec::new();
@@ -207,25 +243,28 @@ impl<'a> Problem<'a> {
                 out.push(Block { experiment: k, channel: c, rows: at..at + n });
                 at += n;
             }
+            at += self.sensor_prior_rows(k);
         }
         out
     }
 
-    /// Row ranges of each included experiment in the residual vector.
+    /// Row ranges of each included experiment (data and sensor prior rows).
     pub fn layout(&self) -> Vec<(usize, Range<usize>)> {
-        let mut out: Vec<(usize, Range<usize>)> = Vec::new();
-        for b in self.blocks() {
-            match out.last_mut() {
-                Some((k, r)) if *k == b.experiment => r.end = b.rows.end,
-                _ => out.push((b.experiment, b.rows.clone())),
-            }
+        let mut at = 0;
+        let mut out = Vec::new();
+        for k in self.included() {
+            let e = &self.experiments[k];
+            let n: usize = e.channels.iter().map(|ch| self.samples[k].iter().filter(|&&i| ch.values[i].is_some()).count()).sum();
+            let end = at + n + self.sensor_prior_rows(k);
+            out.push((k, at..end));
+            at = end;
         }
         out
     }
 
-    /// Number of residuals.
+    /// Number of residuals (data and prior rows).
     pub fn len(&self) -> usize {
-        self.blocks().last().map_or(0, |b| b.rows.end)
+        self.layout().last().map_or(0, |(_, r)| r.end) + self.params.iter().filter(|p| p.prior.is_some()).count()
     }
 
     /// Whether there are no residuals.
@@ -241,13 +280,16 @@ impl<'a> Problem<'a> {
 
 /// Residuals of one channel: measured values `values` (all samples of the
 /// experiment), the fitted sample indices, the simulated values at those
-/// samples, σ and the sensor model. One row per sample with a measurement.
+/// samples, σ and the prior σ of offset and gain (∞ = free, 0 = not
+/// fitted; [`SensorModel::effective`]). One row per sample with a
+/// measurement; the prior rows are in the returned fit.
 pub fn channel_residuals(
     values: &[Option<f64>],
     samples: &[usize],
     simulated: &[Option<f64>],
     sigma: f64,
-    sensors: &SensorModel,
+    so: f64,
+    sg: f64,
 ) -> (Vec<f64>, SensorFit) {
     let (mut s, mut y) = (Vec::new(), Vec::new());
     for (j, &i) in samples.iter().enumerate() {
@@ -256,7 +298,7 @@ pub fn channel_residuals(
             y.push(m);
         }
     }
-    let (r, fit) = profile(&s, &y, sigma, sensors);
+    let (r, fit) = profile(&s, &y, sigma, so, sg);
     let mut rows = Vec::with_capacity(samples.len());
     let mut it = r.into_iter();
     for (j, &i) in samples.iter().enumerate() {
@@ -343,18 +385,26 @@ impl<'r> Sampler<'r> {
             .collect()
     }
 
-    /// Σr² over the channels at skew δ, offsets and gains eliminated.
+    /// The experiment's posterior cost at skew δ: Σr² over the channels
+    /// with offsets and gains eliminated, their prior terms, and (δ/σ_δ)².
     pub fn cost(&self, delta: f64, sensors: &SensorModel) -> f64 {
-        self.at(delta, sensors.fits_skew())
+        let data: f64 = self
+            .at(delta, sensors.fits_skew())
             .iter()
             .zip(&self.e.channels)
-            .map(|(sim, ch)| channel_residuals(&ch.values, self.samples, sim, ch.sigma, sensors).0.iter().map(|x| x * x).sum::<f64>())
-            .sum()
+            .map(|(sim, ch)| {
+                let (so, sg) = sensors.effective(ch.prior.as_ref());
+                let (r, fit) = channel_residuals(&ch.values, self.samples, sim, ch.sigma, so, sg);
+                r.iter().map(|x| x * x).sum::<f64>() + fit.penalty()
+            })
+            .sum();
+        let prior = if sensors.fits_skew() { (delta / sensors.skew).powi(2) } else { 0.0 };
+        data + prior
     }
 
-    /// The channels at the best skew within the sensor model's bound, and that skew.
+    /// The channels at the MAP skew within the sensor model's bound, and that skew.
     pub fn best(&self, sensors: &SensorModel) -> (Vec<Vec<Option<f64>>>, f64) {
-        let delta = best_skew(sensors.skew, |d| self.cost(d, sensors));
+        let delta = best_skew(sensors.skew_bound(), |d| self.cost(d, sensors));
         (self.at(delta, sensors.fits_skew()), delta)
     }
 }
@@ -372,7 +422,7 @@ mod tests {
             name: "probe".into(),
             sets: vec!["supply.p=5 bar".into()],
             times: (0..n).map(|i| i as f64 * 1e-3).collect(),
-            channels: vec![Channel { signal: "head.p".into(), values, sigma: 500.0, sigma_estimated: false }],
+            channels: vec![Channel { signal: "head.p".into(), values, sigma: 500.0, sigma_estimated: false, prior: None }],
             time_origin: 0.0,
         }
     }
@@ -384,15 +434,16 @@ mod tests {
         // nonzero ones when a parameter moves.
         let flat = meter_out();
         let exps = vec![probe(vec![Some(0.0); 401])];
-        let specs = vec![CalibSpec { target: "friction.k0".into(), bounds: None }];
+        let specs = vec![CalibSpec::plain("friction.k0")];
         let params = calibration_params(&flat, &exps, &specs).unwrap();
         let settings = SimSettings { rtol: 1e-6, atol: 1e-6, max_step: 0.05 };
-        let pr = Problem::new(&flat, &exps, vec![], params.clone(), settings, SensorModel::default(), 1e-3);
+        let offsets = SensorModel { offset: true, gain: false, skew: 0.0 };
+        let pr = Problem::new(&flat, &exps, vec![], params.clone(), settings, offsets, 1e-3);
         let start: Vec<f64> = params.iter().map(|p| p.start).collect();
         let result = pr.simulate(0, &start, 1e-3).unwrap();
         let pred = sample_channels(&result, &exps[0], &(0..=400).collect::<Vec<_>>()).unwrap();
         let exps = vec![probe(pred[0].iter().map(|v| v.map(|p| p + 1000.0)).collect())];
-        let pr = Problem::new(&flat, &exps, vec![], params.clone(), settings, SensorModel::default(), 2e-3);
+        let pr = Problem::new(&flat, &exps, vec![], params.clone(), settings, offsets, 2e-3);
         assert_eq!(pr.samples[0].len(), 201);
         assert!((pr.intervals[0] - 2e-3).abs() < 1e-12);
         let result = pr.simulate(0, &start, pr.intervals[0]).unwrap();
@@ -416,7 +467,7 @@ mod tests {
         // Data of the model itself, stamped 0.7 ms late (a sample stamped t
         // was taken at t − 0.7 ms), read from a fine simulation.
         let flat = meter_out();
-        let specs = vec![CalibSpec { target: "friction.k0".into(), bounds: None }];
+        let specs = vec![CalibSpec::plain("friction.k0")];
         let exps = vec![probe(vec![Some(0.0); 401])];
         let params = calibration_params(&flat, &exps, &specs).unwrap();
         let settings = SimSettings { rtol: 1e-8, atol: 1e-8, max_step: 0.05 };
@@ -428,7 +479,7 @@ mod tests {
         let col: Vec<Option<f64>> = fine.rows.iter().map(|r| r[c]).collect();
         let data = interpolate_many(&fine.times, &col, (0..401).map(|i| i as f64 * 1e-3 - skew));
         let exps = vec![probe(data)];
-        let fitted = SensorModel { skew: 2e-3, ..SensorModel::default() };
+        let fitted = SensorModel { offset: true, gain: false, skew: 1e-3 };
         let pr = Problem::new(&flat, &exps, vec![], params.clone(), settings, fitted, 1e-3);
         let result = pr.simulate(0, &start, pr.intervals[0]).unwrap();
         let sampler = Sampler::new(&result, &exps[0], &pr.samples[0]).unwrap();
@@ -437,7 +488,7 @@ mod tests {
         let worst = |r: &[f64]| r.iter().fold(0.0_f64, |m, x| m.max(x.abs()));
         let with = pr.residuals(&start).unwrap();
         // without the skew the pressure rise is read 0.7 ms early: tens of σ
-        let without = Problem { sensors: SensorModel::default(), ..pr.clone() }.residuals(&start).unwrap();
+        let without = Problem { sensors: SensorModel { skew: 0.0, ..fitted }, ..pr.clone() }.residuals(&start).unwrap();
         let rms = |r: &[f64]| (r.iter().map(|x| x * x).sum::<f64>() / r.len() as f64).sqrt();
         assert!(rms(&with) < 0.3 && worst(&without) > 10.0, "with {} (worst {}) without {}", rms(&with), worst(&with), worst(&without));
         // what is left is the interpolation of the 1 ms output grid at the valve switch (a few σ at one sample)
@@ -453,9 +504,11 @@ mod tests {
             values: vec![Some(0.0), None, Some(0.0), None, None, Some(0.0), None, None, None],
             sigma: 1e-5,
             sigma_estimated: false,
+            prior: None,
         });
         let exps = vec![e.clone(), e];
-        let pr = Problem::new(&flat, &exps, vec![], vec![], SimSettings::default(), SensorModel::default(), 1e-3);
+        let pr =
+            Problem::new(&flat, &exps, vec![], vec![], SimSettings::default(), SensorModel { offset: true, gain: false, skew: 0.0 }, 1e-3);
         let b = pr.blocks();
         assert_eq!(
             b.iter().map(|b| (b.experiment, b.channel, b.rows.clone())).collect::<Vec<_>>(),
@@ -465,7 +518,7 @@ mod tests {
         assert_eq!(pr.len(), 24);
         // a missing simulated value counts as zero and is kept out of the offset
         let (rows, fit) =
-            channel_residuals(&[Some(1.0), Some(3.0), Some(5.0)], &[0, 1, 2], &[Some(0.0), None, Some(2.0)], 1.0, &SensorModel::default());
+            channel_residuals(&[Some(1.0), Some(3.0), Some(5.0)], &[0, 1, 2], &[Some(0.0), None, Some(2.0)], 1.0, f64::INFINITY, 0.0);
         assert_eq!(fit.offset, 2.0);
         assert_eq!(rows, vec![1.0, 0.0, -1.0]);
     }

@@ -20,10 +20,10 @@ use crate::candidates::{estimates, problem_for, Candidate, Estimate, Structure};
 use crate::diagnose::{diagnose, Diagnosis, Trace};
 use crate::experiment::Experiment;
 use crate::netlist_edit::{param_si, Topology};
-use crate::nuisance::{skew_standard_error, standard_errors, SensorModel};
+use crate::nuisance::{skew_standard_error, standard_errors, SensorModel, SYMPTOM};
 use crate::options::{Options, Thresholds};
 use crate::params::Target;
-use crate::phases::{classify, Phase};
+use crate::phases::{classify, classify_vessel, Phase};
 use crate::problem::{channel_residuals, column_at, Sampler, SimSettings};
 use crate::selection::Selected;
 use crate::stats::{information_criterion, integrated_time};
@@ -48,6 +48,17 @@ pub struct SensorEstimate {
     /// `None` when not fitted).
     pub time_skew: f64,
     pub time_skew_ci95: Option<(f64, f64)>,
+    /// Prior σ of the offset [SI] (∞: free) and of the gain (0: not fitted), and where they come from.
+    pub offset_prior_sd: f64,
+    pub gain_prior_sd: f64,
+    pub prior_source: String,
+    /// The estimates in prior σ (|o|/σ_o, |g|/σ_g, |δ|/σ_δ; 0 without a prior).
+    pub offset_z: f64,
+    pub gain_z: f64,
+    pub skew_z: f64,
+    /// An estimate beyond [`crate::nuisance::SYMPTOM`] prior σ: a symptom of
+    /// model-form error rather than a sensor error (says which).
+    pub symptom: Option<String>,
 }
 
 /// Correlation of one channel's residuals (pooled over experiments).
@@ -124,12 +135,18 @@ pub struct Summary {
     /// The effects named, in the order they were added.
     pub selected: Vec<Selected>,
     pub verdict: String,
+    /// How sure the verdict is.
+    pub grade: Grade,
     /// Names when the last round was ambiguous.
     pub ambiguous: Vec<String>,
     /// Effects the backward check removed, with the reason.
     pub dropped: Vec<(String, String)>,
     /// Channels the final model does not explain.
     pub remainder: Vec<Remainder>,
+    /// Per channel: the final model's normalised RMSE at the fitted samples
+    /// (computed with or without the report; above `remainder_rmse` it makes
+    /// the remainder significant, see [`verdict`]).
+    pub fitted_rmse: BTreeMap<String, f64>,
     pub after: ModelSummary,
     pub thresholds: Thresholds,
     /// Sensor errors fitted as nuisance parameters.
@@ -224,16 +241,29 @@ fn trace_of(
     let mut simulated = Vec::new();
     let mut est = Vec::new();
     let (mut sum_r2, mut n_r, mut taus) = (0.0, 0usize, Vec::new());
+    let skew_z = if sensors.fits_skew() { (skew / sensors.skew).abs() } else { 0.0 };
     for (ch, sim) in e.channels.iter().zip(&raw) {
-        let (r, fit) = channel_residuals(&ch.values, &all, sim, ch.sigma, sensors);
+        let (so, sg) = sensors.effective(ch.prior.as_ref());
+        let (r, fit) = channel_residuals(&ch.values, &all, sim, ch.sigma, so, sg);
         let ms = r.iter().map(|x| x * x).sum::<f64>() / r.len().max(1) as f64;
         let tau = integrated_time(&r);
         sum_r2 += ms * r.len() as f64;
         n_r += r.len();
         taus.push(tau);
         let paired: Vec<f64> = all.iter().filter(|&&i| ch.values[i].is_some()).filter_map(|&i| sim[i]).collect();
-        let (se_o, se_g) = standard_errors(&paired, ch.sigma, ms, tau, sensors);
+        let (se_o, se_g) = standard_errors(&paired, ch.sigma, so, sg, ms, tau);
         let ci = |v: f64, se: Option<f64>| se.map(|s| (v - 1.96 * s, v + 1.96 * s));
+        let (oz, gz) = (fit.offset_z.map_or(0.0, f64::abs), fit.gain_z.map_or(0.0, f64::abs));
+        let mut symptoms = Vec::new();
+        if oz > SYMPTOM {
+            symptoms.push(format!("offset {oz:.1} prior σ"));
+        }
+        if gz > SYMPTOM && sg.is_finite() {
+            symptoms.push(format!("gain error {gz:.1} prior σ"));
+        }
+        if skew_z > SYMPTOM {
+            symptoms.push(format!("time skew {skew_z:.1} prior σ"));
+        }
         est.push(SensorEstimate {
             experiment: e.name.clone(),
             signal: ch.signal.clone(),
@@ -243,12 +273,20 @@ fn trace_of(
             gain_ci95: ci(fit.gain, se_g),
             time_skew: skew,
             time_skew_ci95: None,
+            offset_prior_sd: so,
+            gain_prior_sd: sg,
+            prior_source: ch.prior.as_ref().map_or_else(|| "none (free offset)".to_string(), |p| p.source.clone()),
+            offset_z: oz,
+            gain_z: gz,
+            skew_z,
+            symptom: (!symptoms.is_empty())
+                .then(|| format!("{} beyond {SYMPTOM} prior σ: the model, not the sensor, is the likelier cause", symptoms.join(", "))),
         });
         simulated.push(sim.iter().map(|v| v.map(|y| fit.offset + (1.0 + fit.gain) * y)).collect());
     }
-    if sensors.skew > 0.0 && n_r > 0 {
+    if sensors.fits_skew() && n_r > 0 {
         let tau = taus.iter().sum::<f64>() / taus.len().max(1) as f64;
-        let se = skew_standard_error(skew, sensors.skew, sum_r2 / n_r as f64, tau, |d| sampler.cost(d, sensors));
+        let se = skew_standard_error(skew, sensors.skew_bound(), sum_r2 / n_r as f64, tau, |d| sampler.cost(d, sensors));
         for x in &mut est {
             x.time_skew_ci95 = se.map(|s| (skew - 1.96 * s, skew + 1.96 * s));
         }
@@ -261,9 +299,13 @@ fn trace_of(
                     .map(|v| v.into_iter().map(|x| x.unwrap_or(0.0)).collect())
                     .unwrap_or_else(|| vec![0.0; e.times.len()])
             };
-            let cmd = get(topo.command.clone());
-            let x = get(topo.piston.as_ref().map(|p| format!("{p}.x")));
-            classify(&e.times, &cmd, &x, stroke)
+            if topo.piston.is_none() && !topo.vessels.is_empty() {
+                classify_vessel(&e.times, &get(Some(format!("{}.p", topo.vessels[0]))))
+            } else {
+                let cmd = get(topo.command.clone());
+                let x = get(topo.piston.as_ref().map(|p| format!("{p}.x")));
+                classify(&e.times, &cmd, &x, stroke)
+            }
         }
     };
     let trace = Trace {
@@ -360,25 +402,126 @@ pub fn remainders(m: &ModelSummary, th: &Thresholds) -> Vec<Remainder> {
     out
 }
 
-/// The one-line verdict.
-pub fn verdict(selected: &[Selected], ambiguous: &[String], remainder: &[Remainder]) -> String {
+/// How sure the verdict is (see [`verdict`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Grade {
+    /// Effects named: each passed every test.
+    Named,
+    /// Two candidates explain the gap equally well.
+    Ambiguous,
+    /// A candidate explains most of the gap but failed one test.
+    Likely,
+    /// A candidate fits in-sample but does not predict held-out experiments:
+    /// the mechanism is there, its law is not the catalogue's.
+    LawOutsideCatalogue,
+    /// Something is left that no candidate explains.
+    UnexplainedRemainder,
+    /// The model agrees with the data within the noise and the model-form floor.
+    Nothing,
+}
+
+/// Share of the current model's excess χ² a candidate must remove to be
+/// called "likely" or "mechanism found" when it failed a test.
+pub const MOST_OF_THE_GAP: f64 = 0.5;
+
+/// The one-line verdict and its grade. After the named effects (or
+/// ambiguity), when nothing was named in the last round, the candidate of
+/// that round that removed the largest share of the excess χ² grades it —
+/// when nothing is named, always; after a named effect only when what the
+/// final model leaves is itself `significant` (a channel above
+/// `remainder_rmse`, [`crate::selection::significant`]): a share of a gap
+/// within the noise and the model-form floor is no finding:
+/// - **law outside the catalogue** when it removed at least
+///   [`MOST_OF_THE_GAP`] in-sample (ΔIC below zero) but failed the
+///   held-out tests — it does not predict the experiments it was not fitted
+///   on;
+/// - **likely, not confirmed** when it removed at least that share and
+///   failed other tests (which, and by how much, is said);
+/// - else an **unexplained remainder** when a channel is above the
+///   remainder threshold, else **nothing**.
+///
+/// "No missing effect" is never said while a candidate removed most of the gap.
+pub fn verdict(
+    selected: &[Selected],
+    ambiguous: &[String],
+    remainder: &[Remainder],
+    candidates: &[Candidate],
+    significant: bool,
+) -> (String, Grade) {
     let names = |s: &[Selected]| s.iter().map(|s| s.effect.as_str()).collect::<Vec<_>>().join(", then ");
-    let mut v = if !ambiguous.is_empty() {
-        let prefix = if selected.is_empty() {
-            String::new()
-        } else {
-            format!("missing effect{}: {}; then ", if selected.len() > 1 { "s" } else { "" }, names(selected))
-        };
-        format!("{prefix}ambiguous between {} and {}", ambiguous[0], ambiguous[1])
-    } else if selected.is_empty() {
-        "no missing effect found".to_string()
+    let named = if selected.is_empty() {
+        String::new()
     } else {
         format!("missing effect{}: {}", if selected.len() > 1 { "s" } else { "" }, names(selected))
     };
-    if let Some(r) = remainder.first() {
-        v += &format!("; {}", r.sentence());
+    let rem = remainder.first().map(|r| r.sentence());
+    if !ambiguous.is_empty() {
+        let prefix = if named.is_empty() { String::new() } else { format!("{named}; then ") };
+        let mut v = format!("{prefix}ambiguous between {} and {}", ambiguous[0], ambiguous[1]);
+        if let Some(r) = rem {
+            v += &format!("; {r}");
+        }
+        return (v, Grade::Ambiguous);
     }
-    v
+    let last_round = selected.len() + 1;
+    let best = candidates
+        .iter()
+        .filter(|c| c.round == last_round && !c.screened_out && !c.accepted && c.gap_explained.is_finite())
+        .max_by(|a, b| a.gap_explained.total_cmp(&b.gap_explained))
+        .filter(|c| c.gap_explained >= MOST_OF_THE_GAP && c.delta_ic < 0.0 && (selected.is_empty() || significant));
+    let grade_of = |c: &Candidate| -> Grade {
+        let heldout = c.failed.iter().any(|t| t == "heldout_gain" || t == "model_form_floor");
+        if heldout && (c.heldout_gain.is_nan() || c.heldout_gain <= 0.0 || c.failed.iter().any(|t| t == "heldout_gain")) {
+            Grade::LawOutsideCatalogue
+        } else {
+            Grade::Likely
+        }
+    };
+    let params = |c: &Candidate| -> String {
+        c.estimates
+            .iter()
+            .map(|e| {
+                let v = e.shown.unwrap_or(e.value);
+                let unit = if e.shown.is_some() { e.unit.as_str() } else { "" };
+                let se = e.std_error.and_then(|s| if e.shown.is_some() { units::to_unit(s, &e.unit).ok() } else { Some(s) });
+                let name = e.name.rsplit('.').next().unwrap_or(&e.name);
+                match se {
+                    Some(se) if se.is_finite() => {
+                        format!("{name} {} ± {} {unit}", crate::params::significant(v, 3), crate::params::significant(se, 2))
+                    }
+                    _ => format!("{name} {} {unit}", crate::params::significant(v, 3)),
+                }
+                .trim_end()
+                .to_string()
+            })
+            .collect::<Vec<_>>()
+            .join(", ")
+    };
+    let (mut v, grade) = match best {
+        Some(c) => {
+            let g = grade_of(c);
+            let share = format!("removes {:.0} % of the excess χ²", 100.0 * c.gap_explained);
+            let text = match g {
+                Grade::LawOutsideCatalogue => format!(
+                    "mechanism found, law outside the catalogue: {} {share} in-sample ({}) but does not predict the experiments it was not fitted on ({})",
+                    c.effect,
+                    params(c),
+                    c.reasons.join("; ")
+                ),
+                _ => format!("likely, not confirmed: {} {share} ({}); failed: {}", c.effect, params(c), c.reasons.join("; ")),
+            };
+            (if named.is_empty() { text } else { format!("{named}; then {text}") }, g)
+        }
+        None if !named.is_empty() => (named, Grade::Named),
+        None if rem.is_some() => ("no catalogue effect explains the gap".to_string(), Grade::UnexplainedRemainder),
+        None => ("no missing effect found".to_string(), Grade::Nothing),
+    };
+    if let Some(r) = rem {
+        v += &format!("; {r}");
+    }
+    let grade = if grade == Grade::Named || (!selected.is_empty() && grade == Grade::Nothing) { Grade::Named } else { grade };
+    (v, grade)
 }
 
 /// The structure as one netlist: global calibrated values written in,
@@ -429,10 +572,64 @@ mod tests {
         assert_eq!((r[0].channel.as_str(), r[0].phase), ("piston.x", Phase::Steady));
         // excess: steady 400·15 = 6000, switching 100·3 = 300
         assert!((r[0].share - 6000.0 / 6300.0).abs() < 1e-12);
-        let v = verdict(&[], &[], &r);
-        assert!(v.starts_with("no missing effect found; unexplained remainder in piston.x during steady"), "{v}");
+        let (v, g) = verdict(&[], &[], &r, &[], true);
+        assert!(v.starts_with("no catalogue effect explains the gap; unexplained remainder in piston.x during steady"), "{v}");
+        assert_eq!(g, Grade::UnexplainedRemainder);
         let sel = vec![Selected { effect: "valve_delay".into(), params: BTreeMap::new() }];
-        assert_eq!(verdict(&sel, &[], &[]), "missing effect: valve_delay");
-        assert_eq!(verdict(&sel, &["a".into(), "b".into()], &[]), "missing effect: valve_delay; then ambiguous between a and b");
+        assert_eq!(verdict(&sel, &[], &[], &[], false), ("missing effect: valve_delay".to_string(), Grade::Named));
+        assert_eq!(
+            verdict(&sel, &["a".into(), "b".into()], &[], &[], true).0,
+            "missing effect: valve_delay; then ambiguous between a and b"
+        );
+        assert_eq!(verdict(&[], &[], &[], &[], false), ("no missing effect found".to_string(), Grade::Nothing));
+    }
+
+    fn tried(effect: &str, gap: f64, failed: &[&str], heldout_gain: f64) -> Candidate {
+        let mut c = Candidate::new(1, effect);
+        c.gap_explained = gap;
+        c.delta_ic = -500.0;
+        c.heldout_gain = heldout_gain;
+        for t in failed {
+            c.fail(t, format!("{t} failed"));
+        }
+        c
+    }
+
+    #[test]
+    fn a_candidate_that_removed_most_of_the_gap_grades_the_verdict() {
+        // failed only the parameter test: likely, not confirmed, with the test named
+        let c = tried("heat_transfer", 0.97, &["parameter"], 5.0);
+        let (v, g) = verdict(&[], &[], &[], &[c], false);
+        assert_eq!(g, Grade::Likely);
+        assert!(
+            v.starts_with("likely, not confirmed: heat_transfer removes 97 % of the excess χ²") && v.contains("parameter failed"),
+            "{v}"
+        );
+        // fits in-sample, predicts held-out experiments worse: law outside the catalogue
+        let c = tried("piston_seal_leak", 0.8, &["heldout_gain", "model_form_floor"], -40.0);
+        assert_eq!(verdict(&[], &[], &[], &[c], false).1, Grade::LawOutsideCatalogue);
+        // a candidate that removed little does not grade anything
+        let c = tried("dead_volume", 0.2, &["parameter"], 1.0);
+        assert_eq!(verdict(&[], &[], &[], &[c], false).1, Grade::Nothing);
+    }
+
+    #[test]
+    fn after_a_named_effect_only_a_significant_remainder_is_graded() {
+        // the nominal seal-leak run: the leak named in round 1; in round 2
+        // stribeck_friction removed 61 % of the small excess left in-sample
+        // and failed the held-out tests
+        let sel = vec![Selected { effect: "piston_seal_leak".into(), params: BTreeMap::new() }];
+        let mut c = tried("stribeck_friction", 0.61, &["heldout_gain", "model_form_floor"], -0.2);
+        c.round = 2;
+        // what the leak leaves is within the remainder threshold: the leak alone
+        let (v, g) = verdict(&sel, &[], &[], std::slice::from_ref(&c), false);
+        assert_eq!((v.as_str(), g), ("missing effect: piston_seal_leak", Grade::Named));
+        // a significant remainder is graded as before
+        let (v, g) = verdict(&sel, &[], &[], &[c], true);
+        assert_eq!(g, Grade::LawOutsideCatalogue);
+        assert!(
+            v.starts_with("missing effect: piston_seal_leak; then mechanism found, law outside the catalogue: stribeck_friction"),
+            "{v}"
+        );
     }
 }

@@ -32,6 +32,17 @@
 //! candidate fits that chose it were cut short, and the next round's nested
 //! candidates must not be credited with a better calibration of it.
 //!
+//! # After an effect is named
+//! A later round declares "ambiguous between A and B" only when what the
+//! named effects leave is itself significant: a channel whose normalised
+//! RMSE at the fitted samples ([`fitted_rmse`]) is above `remainder_rmse`,
+//! the threshold of the report's unexplained remainder. Two candidates that
+//! each lower a remainder already within that threshold do not make the
+//! named effects uncertain; the search stops with them, and the two are
+//! recorded as failing the `remainder` test ([`decide_after`]). A single
+//! candidate that passes every test is still named (it is what an unmasked
+//! second effect, a leak behind a valve delay, looks like).
+//!
 //! # Backward check
 //! With two or more effects named, each is removed in turn from the final
 //! model (refitted without it) and kept only if the final model passes the
@@ -39,13 +50,14 @@
 //! named first that a later one made unnecessary is dropped.
 
 use crate::candidates::{better_short, short_reference};
-use crate::candidates::{finish, prepare, problem_for, screened, Candidate, Pass, Structure};
+use crate::candidates::{calibration_jacobian, finish, prepare, problem_for, projected_scan, screened, Candidate, Pass, Structure};
 use crate::effects::Effect;
 use crate::experiment::Experiment;
 use crate::fit::{fit_once, fit_short_stages, screen_horizon, FitOptions};
 use crate::heldout::{leave_one_out, HeldOut};
 use crate::options::{Options, Thresholds};
 use crate::params::{FitParam, Target};
+use crate::stats::BlockStats;
 use graph::FlatNetlist;
 use rayon::prelude::*;
 use serde::Serialize;
@@ -71,6 +83,8 @@ pub struct Search<'a> {
     pub dropped: Vec<(String, String)>,
     /// The baseline's held-out errors (when computed).
     pub baseline_heldout: Option<HeldOut>,
+    /// Per channel: the final model's normalised RMSE at the fitted samples ([`fitted_rmse`]).
+    pub fitted_rmse: BTreeMap<String, f64>,
     pub evaluations: usize,
     pub timing: BTreeMap<String, f64>,
 }
@@ -96,19 +110,30 @@ pub fn compare(a: &HeldOut, b: &HeldOut, th: &Thresholds) -> Comparison {
     Comparison { gain, remainder, ratio: gain / remainder, relative: if ma > 0.0 { gain / ma } else { 0.0 } }
 }
 
-/// Why a comparison fails tests 3 and 4 (empty when it passes).
-pub fn heldout_reasons(c: &Comparison, th: &Thresholds) -> Vec<String> {
+/// Which of tests 3 and 4 a comparison fails, and why (empty when it passes).
+pub fn heldout_failures(c: &Comparison, th: &Thresholds) -> Vec<(&'static str, String)> {
     let mut out = Vec::new();
     if c.relative.is_nan() || c.relative < th.heldout_gain {
-        out.push(format!("held-out mean square lowered by {:.1} % (needs {:.0} %)", 100.0 * c.relative, 100.0 * th.heldout_gain));
+        out.push((
+            "heldout_gain",
+            format!("held-out mean square lowered by {:.1} % (needs {:.0} %)", 100.0 * c.relative, 100.0 * th.heldout_gain),
+        ));
     }
     if c.ratio.is_nan() || c.ratio < th.floor_ratio {
-        out.push(format!(
-            "below the model-form floor: held-out gain {:.3} is {:.2} × the remainder {:.3} it leaves (needs {})",
-            c.gain, c.ratio, c.remainder, th.floor_ratio
+        out.push((
+            "model_form_floor",
+            format!(
+                "below the model-form floor: held-out gain {:.3} is {:.2} × the remainder {:.3} it leaves (needs {})",
+                c.gain, c.ratio, c.remainder, th.floor_ratio
+            ),
         ));
     }
     out
+}
+
+/// Why a comparison fails tests 3 and 4 (empty when it passes).
+pub fn heldout_reasons(c: &Comparison, th: &Thresholds) -> Vec<String> {
+    heldout_failures(c, th).into_iter().map(|(_, why)| why).collect()
 }
 
 /// What a round concludes from the candidates that passed every test.
@@ -137,6 +162,42 @@ pub fn decide(passing: &[(f64, f64)], ambiguity: f64) -> Decision {
             }
         }
     }
+}
+
+/// [`decide`] for a round after `named` effects: an ambiguity there is
+/// declared only when what the named effects leave is `significant`
+/// ([`significant`]); otherwise the round concludes nothing.
+pub fn decide_after(passing: &[(f64, f64)], th: &Thresholds, named: usize, significant: bool) -> Decision {
+    match decide(passing, th.ambiguity) {
+        Decision::Ambiguous(..) if named > 0 && !significant => Decision::None,
+        d => d,
+    }
+}
+
+/// Per channel, pooled over experiments: the normalised RMSE √(Σr²/n) of a
+/// fit's data rows. `signals[b]` names the channel of block b (the blocks of
+/// [`crate::problem::Problem::blocks`], in the order of `stats`).
+pub fn fitted_rmse(signals: &[String], stats: &BlockStats) -> BTreeMap<String, f64> {
+    let mut sums: BTreeMap<String, (f64, usize)> = BTreeMap::new();
+    for (name, (chi2, n)) in signals.iter().zip(stats.chi2.iter().zip(&stats.n)) {
+        let e = sums.entry(name.clone()).or_insert((0.0, 0));
+        e.0 += chi2;
+        e.1 += n;
+    }
+    sums.into_iter().filter(|(_, (_, n))| *n > 0).map(|(k, (c, n))| (k, (c / n as f64).sqrt())).collect()
+}
+
+/// Whether what a model leaves is itself significant: a channel above
+/// `remainder_rmse`, the threshold of the report's unexplained remainder.
+pub fn significant(rmse: &BTreeMap<String, f64>, th: &Thresholds) -> bool {
+    rmse.values().any(|&r| r > th.remainder_rmse)
+}
+
+/// [`fitted_rmse`] of a fitted structure.
+fn structure_rmse(base: &FlatNetlist, experiments: &[Experiment], s: &Structure, opts: &Options) -> BTreeMap<String, f64> {
+    let problem = problem_for(base, experiments, s.effects.clone(), s.params.clone(), opts);
+    let signals: Vec<String> = problem.blocks().iter().map(|b| experiments[b.experiment].channels[b.channel].signal.clone()).collect();
+    fitted_rmse(&signals, &s.fit.stats)
 }
 
 /// Compute a structure's held-out errors if not known yet; returns simulations spent.
@@ -204,6 +265,12 @@ fn polish(base: &FlatNetlist, experiments: &[Experiment], s: &mut Structure, opt
     Ok(spent)
 }
 
+/// The first round's rescue (below) is skipped when a candidate already
+/// lowered the short-record criterion by more than this: a strong effect
+/// then stands out of the bent calibration on its own (the rescue was
+/// needed where the best first-pass candidate gained little).
+const RESCUE_UNLESS: f64 = 1000.0;
+
 /// Run the greedy search and the backward check from the calibrated baseline.
 pub fn search<'a>(
     base: &'a FlatNetlist,
@@ -221,6 +288,7 @@ pub fn search<'a>(
         alternatives: Vec::new(),
         dropped: Vec::new(),
         baseline_heldout: None,
+        fitted_rmse: BTreeMap::new(),
         evaluations: 0,
         timing: BTreeMap::new(),
     };
@@ -246,6 +314,45 @@ pub fn search<'a>(
             if tried.len() == 1 { "" } else { "s" },
             tried.iter().map(|e| e.name()).collect::<Vec<_>>().join(", ")
         ));
+        // the projected scan ranks the candidates; only the best few are prepared
+        let mut pruned: Vec<Candidate> = Vec::new();
+        let projection = if opts.screen_prepare > 0 { calibration_jacobian(base, experiments, &current, opts) } else { None };
+        let tried: Vec<&dyn Effect> = match projection {
+            Some((reference, spent)) => {
+                out.evaluations += spent;
+                let scored: Vec<(f64, usize)> =
+                    tried.par_iter().map(|e| projected_scan(base, experiments, &current, *e, &reference, opts)).collect();
+                let mut order: Vec<usize> = (0..tried.len()).collect();
+                order.sort_by(|&a, &b| scored[a].0.total_cmp(&scored[b].0));
+                let mut kept = Vec::new();
+                for (rank, &i) in order.iter().enumerate() {
+                    if rank < opts.screen_prepare && scored[i].0 < 0.0 {
+                        out.evaluations += scored[i].1;
+                        kept.push(tried[i]);
+                    } else {
+                        let mut c = Candidate::new(round, tried[i].name());
+                        c.screened_out = true;
+                        c.delta_ic = scored[i].0;
+                        c.evaluations = scored[i].1;
+                        c.fit_message = "screened out by the projected scan".into();
+                        c.fail(
+                            "screen",
+                            format!(
+                                "screened out: projected-scan ΔIC {:.1} is not below 0 or not among the best {} of the round",
+                                scored[i].0, opts.screen_prepare
+                            ),
+                        );
+                        pruned.push(c);
+                    }
+                }
+                opts.progress.say(&format!(
+                    "  projected scan: {}",
+                    order.iter().map(|&i| format!("{} {:.0}", tried[i].name(), scored[i].0)).collect::<Vec<_>>().join(", ")
+                ));
+                kept
+            }
+            _ => tried,
+        };
         let mut preps: Vec<_> =
             tried.par_iter().map(|e| prepare(base, experiments, &current, *e, Pass { round, rescue: false }, opts)).collect();
         let best =
@@ -259,7 +366,11 @@ pub fn search<'a>(
         // preparations is kept. Not only when no candidate improved: a wrong
         // candidate can improve a little on the bent calibration, which
         // then screens out the right one by the relative test.
-        if current.effects.is_empty() && !current.fit.converged && current.short.is_some() {
+        if current.effects.is_empty()
+            && !current.fit.converged
+            && current.short.is_some()
+            && best_short.partial_cmp(&-RESCUE_UNLESS) != Some(std::cmp::Ordering::Less)
+        {
             let again: Vec<_> =
                 tried.par_iter().map(|e| prepare(base, experiments, &current, *e, Pass { round, rescue: true }, opts)).collect();
             for (i, p) in again.into_iter().enumerate() {
@@ -312,22 +423,27 @@ pub fn search<'a>(
         let mut results = results;
         for (s, c) in results.iter_mut() {
             if s.is_some() && c.delta_ic >= -th.ic {
-                c.reasons.push(format!("information criterion: ΔIC = {:.1} is not below -{} (effective sample sizes)", c.delta_ic, th.ic));
+                c.fail(
+                    "information_criterion",
+                    format!("information criterion: ΔIC = {:.1} is not below -{} (effective sample sizes)", c.delta_ic, th.ic),
+                );
             }
         }
-        // held-out and floor tests for the candidates that passed the rest
-        if results.iter().any(|(s, c)| s.is_some() && c.reasons.is_empty()) {
+        // held-out and floor tests for every candidate fitted on the full
+        // records (a few simulations each): they decide, and for one that
+        // failed another test they grade the verdict (crate::report)
+        if results.iter().any(|(s, _)| s.is_some()) {
             out.evaluations += ensure_heldout(base, experiments, &mut current, opts)?;
             if current.effects.is_empty() {
                 out.baseline_heldout = current.heldout.clone();
             }
             let reference = current.heldout.clone().ok_or("no held-out reference")?;
             results.par_iter_mut().for_each(|(s, c)| {
-                let Some(s) = s.as_mut().filter(|_| c.reasons.is_empty()) else { return };
+                let Some(s) = s.as_mut() else { return };
                 match ensure_heldout(base, experiments, s, opts) {
                     Ok(e) => c.evaluations += e,
                     Err(e) => {
-                        c.reasons.push(format!("held-out prediction failed: {e}"));
+                        c.fail("heldout_gain", format!("held-out prediction failed: {e}"));
                         return;
                     }
                 }
@@ -336,8 +452,15 @@ pub fn search<'a>(
                 c.heldout_rmse = h.rmse();
                 c.heldout_gain = cmp.gain;
                 c.floor_ratio = cmp.ratio;
-                c.reasons.extend(heldout_reasons(&cmp, &th));
+                c.heldout_relative = cmp.relative;
+                for (test, why) in heldout_failures(&cmp, &th) {
+                    c.fail(test, why);
+                }
             });
+        }
+        for c in pruned {
+            out.evaluations += c.evaluations;
+            out.candidates.push(c);
         }
         let mut passing: Vec<(Structure<'a>, Candidate)> = Vec::new();
         for (s, mut c) in results {
@@ -355,7 +478,22 @@ pub fn search<'a>(
         }
         out.timing.insert(format!("round {round}"), clock.elapsed().as_secs_f64());
         let scores: Vec<(f64, f64)> = passing.iter().map(|(_, c)| (c.delta_ic, c.heldout_gain)).collect();
-        match decide(&scores, th.ambiguity) {
+        let left = structure_rmse(base, experiments, &current, opts);
+        let decision = decide_after(&scores, &th, current.effects.len(), significant(&left, &th));
+        if decision == Decision::None && decide(&scores, th.ambiguity) != Decision::None {
+            // two candidates tie on a remainder within the threshold: not an ambiguity of the named effects
+            let (channel, worst) = left.iter().max_by(|a, b| a.1.total_cmp(b.1)).map_or(("-", f64::NAN), |(k, v)| (k.as_str(), *v));
+            let why = format!(
+                "remainder: what the named effects leave is not significant (largest normalised RMSE {worst:.2} in {channel}, threshold {}); passed the other tests on it",
+                th.remainder_rmse
+            );
+            opts.progress.say(&format!("  round {round}: {why}"));
+            for c in out.candidates.iter_mut().filter(|c| c.round == round && c.accepted) {
+                c.accepted = false;
+                c.fail("remainder", why.clone());
+            }
+        }
+        match decision {
             Decision::None => break,
             Decision::Ambiguous(a, b) => {
                 out.ambiguous = vec![passing[a].1.effect.clone(), passing[b].1.effect.clone()];
@@ -364,9 +502,8 @@ pub fn search<'a>(
             }
             Decision::Select(a) => {
                 let (mut s, c) = passing.swap_remove(a);
-                if round < opts.max_effects {
-                    out.evaluations += polish(base, experiments, &mut s, opts)?;
-                }
+                // always: the candidate's fit held the form parameters
+                out.evaluations += polish(base, experiments, &mut s, opts)?;
                 // the effect's parameters as the (possibly polished) model holds them
                 let slot = s.effects.len() - 1;
                 let params = s
@@ -410,6 +547,7 @@ pub fn search<'a>(
         }
         out.timing.insert("backward check".into(), clock.elapsed().as_secs_f64());
     }
+    out.fitted_rmse = structure_rmse(base, experiments, &current, opts);
     out.model = current;
     Ok(out)
 }
@@ -432,6 +570,33 @@ mod tests {
         // gains 8 and 7.5: within 10 % → ambiguous, best first
         assert_eq!(decide(&[(-800.0, 7.5), (-850.0, 8.0)], 0.1), Decision::Ambiguous(1, 0));
         assert_eq!(decide(&[(-800.0, 7.5), (-850.0, 8.0)], 0.05), Decision::Select(1));
+    }
+
+    #[test]
+    fn after_a_named_effect_a_tie_is_ambiguous_only_on_a_significant_remainder() {
+        let th = Thresholds::default();
+        // the nominal valve-delay run's second round: two candidates pass
+        // with held-out gains within 10 % of each other
+        let tie = [(-300.0, 0.30), (-280.0, 0.29)];
+        // what the valve delay leaves: position 1.2, pressures near the noise
+        let signals: Vec<String> = ["piston.x", "head.p", "piston.x", "head.p"].iter().map(|s| s.to_string()).collect();
+        let stats = BlockStats {
+            chi2: vec![1.44 * 500.0, 1.05 * 400.0, 1.44 * 300.0, 1.1 * 400.0],
+            n: vec![500, 400, 300, 400],
+            tau: vec![1.0; 4],
+        };
+        let left = fitted_rmse(&signals, &stats);
+        assert!((left["piston.x"] - 1.2).abs() < 1e-12 && (left["head.p"] - 1.075f64.sqrt()).abs() < 1e-12);
+        assert!(!significant(&left, &th));
+        assert_eq!(decide_after(&tie, &th, 1, significant(&left, &th)), Decision::None);
+        // a remainder above the threshold keeps the ambiguity
+        let stats = BlockStats { chi2: vec![9.0 * 500.0, 400.0, 9.0 * 300.0, 400.0], ..stats };
+        let left = fitted_rmse(&signals, &stats);
+        assert!(significant(&left, &th));
+        assert_eq!(decide_after(&tie, &th, 1, true), Decision::Ambiguous(0, 1));
+        // with nothing named yet the tie is always ambiguous, and a clear winner is always named
+        assert_eq!(decide_after(&tie, &th, 0, false), Decision::Ambiguous(0, 1));
+        assert_eq!(decide_after(&[(-300.0, 0.30), (-100.0, 0.1)], &th, 1, false), Decision::Select(0));
     }
 
     #[test]

@@ -18,7 +18,7 @@ use crate::effects::{catalogue, Effect};
 use crate::experiment::Experiment;
 use crate::fit::fit_staged;
 use crate::options::Options;
-use crate::params::{calibration_params, CalibSpec};
+use crate::params::{calibration_params, CalibSpec, Target};
 use crate::phases::Phase;
 use crate::report::{remainders, summarize, verdict, written_netlist, Outcome, Summary};
 use crate::selection::{ensure_heldout, search};
@@ -56,7 +56,19 @@ pub fn run(base: &FlatNetlist, experiments: &[Experiment], calibrate: &[CalibSpe
     }
     let pool: Vec<&dyn Effect> =
         all.iter().map(|e| e.as_ref()).filter(|e| opts.effects.as_ref().is_none_or(|v| v.iter().any(|n| n == e.name()))).collect();
-    let calib = calibration_params(base, experiments, calibrate).map_err(IdentifyError::Setup)?;
+    // every channel gets its sensor prior (the default of its quantity unless given)
+    let units = crate::manifest::signal_units(base).map_err(IdentifyError::Setup)?;
+    let mut owned = experiments.to_vec();
+    crate::experiment::assign_default_priors(&mut owned, |s| units.get(s).cloned().unwrap_or_default());
+    let experiments = &owned[..];
+    let mut calib = calibration_params(base, experiments, calibrate).map_err(IdentifyError::Setup)?;
+    // a vessel's initial state from the data's first samples (unless calibrated as asked)
+    for p in crate::params::initial_state_params(base, experiments) {
+        let taken = calib.iter().any(|c| matches!((&c.target, &p.target), (Target::Netlist { id: a, param: b, .. }, Target::Netlist { id: c, param: d, .. }) if a == c && b == d));
+        if !taken {
+            calib.push(p);
+        }
+    }
     let mut timing = BTreeMap::new();
 
     // 1–2. the baseline's calibration
@@ -112,14 +124,21 @@ pub fn run(base: &FlatNetlist, experiments: &[Experiment], calibrate: &[CalibSpe
     }
     timing.insert("report".to_string(), report_clock.elapsed().as_secs_f64());
     let noise = experiments.iter().map(|e| (e.name.clone(), e.channels.iter().map(|c| (c.signal.clone(), c.sigma)).collect())).collect();
+    // what the final model leaves is significant when the report finds a
+    // remainder at full resolution, or (report or not) a channel at the
+    // fitted samples is above the same threshold
+    let significant = !remainder.is_empty() || crate::selection::significant(&found.fitted_rmse, &opts.thresholds);
+    let (verdict_text, grade) = verdict(&found.selected, &found.ambiguous, &remainder, &found.candidates, significant);
     let summary = Summary {
         baseline: baseline_summary,
         candidates: found.candidates,
-        verdict: verdict(&found.selected, &found.ambiguous, &remainder),
+        verdict: verdict_text,
+        grade,
         selected: found.selected,
         ambiguous: found.ambiguous,
         dropped: found.dropped,
         remainder,
+        fitted_rmse: found.fitted_rmse,
         after: after_summary,
         thresholds: opts.thresholds,
         sensor_model: opts.sensors,

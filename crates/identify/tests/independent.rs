@@ -24,8 +24,7 @@
 //! forms, three cycles) is `full_matrix`, ignored here:
 //! `cargo test --release -p pneumo-identify --test independent -- --ignored --nocapture`
 //! (its table is in docs/discrepancy.md; `SEEDS=n` seeds per case,
-//! `VARIATION=nominal` or `varied` one half only, `OPT_IN=1` with the
-//! throttle's subsonic index calibrated and a 2 ms logger skew fitted).
+//! `VARIATION=nominal` or `varied` one half only, `CASES=a,b` some cases).
 
 mod truth;
 
@@ -38,12 +37,16 @@ fn run(case: Case, seed: u64, variation: Variation, cycles: usize) -> (truth::Tr
     let records = truth::records(&t, seed, cycles).expect("the rig simulates");
     let experiments = truth::experiments(&records).expect("the records are experiments");
     let model = truth::model(case);
-    let mut calibrate = identify::params::default_calibration(&model);
+    let calibrate = identify::params::default_calibration(&model);
     let mut options = identify::Options { report: false, ..identify::Options::default() };
-    // OPT_IN=1: the documented opt-ins, the throttle's subsonic index and a 2 ms logger skew
-    if std::env::var("OPT_IN").is_ok() {
-        calibrate.push(identify::params::CalibSpec { target: "flow_control.m".into(), bounds: Some((0.35, 0.7)) });
-        options.sensors.skew = 2e-3;
+    // studies of the defaults (not used by the CI set): SCREEN_PREPARE=n turns
+    // the projected scan on, SENSORS=offset fits offsets only, no gain or skew
+    if let Some(n) = std::env::var("SCREEN_PREPARE").ok().and_then(|s| s.parse().ok()) {
+        options.screen_prepare = n;
+    }
+    if std::env::var("SENSORS").is_ok_and(|s| s == "offset") {
+        options.sensors.gain = false;
+        options.sensors.skew = 0.0;
     }
     let o = identify::run(&model, &experiments, &calibrate, &options).expect("the workflow runs");
     (t, o)
@@ -116,6 +119,11 @@ fn seeds() -> u64 {
     std::env::var("SEEDS").ok().and_then(|s| s.parse().ok()).unwrap_or(5)
 }
 
+/// The first seed of the long matrix (environment `FIRST_SEED`, default 1).
+fn first_seed() -> u64 {
+    std::env::var("FIRST_SEED").ok().and_then(|s| s.parse().ok()).unwrap_or(1)
+}
+
 #[test]
 #[ignore = "long matrix: run with --release -- --ignored --nocapture"]
 fn full_matrix() {
@@ -124,10 +132,12 @@ fn full_matrix() {
     let wanted = std::env::var("VARIATION").unwrap_or_default();
     let variations = [Variation::Nominal, Variation::Varied];
     for variation in variations.into_iter().filter(|v| wanted.is_empty() || format!("{v:?}").eq_ignore_ascii_case(&wanted)) {
-        for case in Case::ALL {
+        // CASES=a,b runs some cases only
+        let cases = std::env::var("CASES").unwrap_or_default();
+        for case in Case::ALL.into_iter().filter(|c| cases.is_empty() || cases.split(',').any(|n| n == c.name())) {
             let (mut exact, mut total) = (0, 0);
             let mut confusions = std::collections::BTreeMap::<String, usize>::new();
-            for seed in 1..=seeds() {
+            for seed in first_seed()..first_seed() + seeds() {
                 let clock = std::time::Instant::now();
                 let (_, o) = run(case, seed, variation, 3);
                 let seconds = clock.elapsed().as_secs_f64();

@@ -55,7 +55,7 @@ impl Netlist {
                 let plain_si = w.message.contains(" (SI)");
                 !(plain_si && self.si_numbers.iter().any(|n| n == "*" || w.message.starts_with(&format!("{n} = "))))
             })
-            .map(|w| graph::escape(&w.to_string()))
+            .map(|w| pneumo_app::error::one_line(&w.to_string()))
             .collect()
     }
 }

@@ -44,6 +44,11 @@
 //! compressible Hagen–Poiseuille flow, ṁ = k (p_u² − p_d²)/(2 R T_u), where
 //! for a capillary of diameter d and length ℓ, k = π d⁴/(128 μ ℓ) [m³/(s Pa)].
 //! (Integrate −dp/dx = 128 μ ṁ/(π d⁴ ρ) with ρ = p/(R T) along ℓ.)
+//! Or the linear law of most pneumatics textbooks for internal leakage,
+//! ṁ = k_L (p_u − p_d) with a constant leakage coefficient k_L [kg/(s Pa)]
+//! (e.g. P. Beater, "Pneumatic Drives", Springer 2007, §4; Richer &
+//! Hurmuzlu, J. Dyn. Sys. Meas. Control 122 (2000) 416): the mass flow does
+//! not grow with the mean pressure and never chokes.
 
 use crate::error::RigError;
 
@@ -197,13 +202,18 @@ pub enum LeakLaw {
         /// Laminar coefficient k = π d⁴/(128 μ ℓ) [m³/(s Pa)].
         k: f64,
     },
+    /// Linear in the pressure difference: ṁ = k_l (p_u − p_d), k_l [kg/(s Pa)].
+    Linear {
+        /// Leakage coefficient [kg/(s Pa)].
+        k_l: f64,
+    },
 }
 
 impl LeakLaw {
     pub(crate) fn validate(&self) -> Result<(), RigError> {
         match *self {
             LeakLaw::Iso(r) => r.validate("effects.seal_leak"),
-            LeakLaw::Laminar { k } => {
+            LeakLaw::Laminar { k } | LeakLaw::Linear { k_l: k } => {
                 if !(k >= 0.0 && k.is_finite()) {
                     return Err(RigError::invalid("effects.seal_leak.k", k, "must be non-negative and finite"));
                 }
@@ -220,6 +230,7 @@ impl LeakLaw {
         match *self {
             LeakLaw::Iso(r) => r.forward(law, p_u, t_u, p_d),
             LeakLaw::Laminar { k } => k * (p_u * p_u - p_d * p_d) / (2.0 * gas_r * t_u),
+            LeakLaw::Linear { k_l } => k_l * (p_u - p_d),
         }
     }
 }
@@ -283,6 +294,16 @@ mod tests {
         assert_eq!(lin.opening(500.0, 0.0), 0.5);
         assert_eq!(lin.opening(5000.0, 0.0), 1.0);
         assert_eq!(lin.opening(600.0, 100.0), 0.5);
+    }
+
+    #[test]
+    fn linear_leak_by_hand() {
+        let law = LeakLaw::Linear { k_l: 2e-11 };
+        let m = law.forward(&SubsonicLaw::default(), 287.05, 4e5, 292.0, 1e5);
+        assert_eq!(m, 2e-11 * 3e5);
+        // the same drop at a higher mean pressure passes the same flow
+        assert_eq!(law.forward(&SubsonicLaw::default(), 287.05, 7e5, 292.0, 4e5), m);
+        assert_eq!(law.forward(&SubsonicLaw::default(), 287.05, 1e5, 292.0, 4e5), 0.0);
     }
 
     #[test]

@@ -85,8 +85,8 @@
 //!
 //! ## Hidden effects ([`Effects`], all off by default)
 //!
-//! Piston seal leak (ISO 6358 restriction, or laminar capillary
-//! ṁ = k(p_u² − p_d²)/(2RT_u)); 5/2 valve command delay; extra dead volume
+//! Piston seal leak (ISO 6358 restriction, laminar capillary
+//! ṁ = k(p_u² − p_d²)/(2RT_u), or linear ṁ = k_L(p_u − p_d)); 5/2 valve command delay; extra dead volume
 //! of either chamber; breakaway ratio and Stribeck friction; supply droop
 //! (the valve is fed from a line volume refilled from the source through a
 //! line restriction); τ_T finite or ∞ (adiabatic); real gas (virial).

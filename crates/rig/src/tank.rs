@@ -55,6 +55,35 @@ pub struct VesselSystem {
     pub reservoir: Option<Reservoir>,
     /// Restriction between vessels 0 and 1.
     pub link: Option<Restriction>,
+    /// Wall heat by natural convection, in addition to the τ_T of each vessel.
+    pub convection: Option<Convection>,
+}
+
+/// Turbulent natural convection at the vessel wall (W. H. McAdams, "Heat
+/// Transmission", 3rd ed., 1954): Nu = c·Ra^⅓, so that the heat-transfer
+/// coefficient does not depend on the wall's height,
+/// h = c·k·(g·β·|T_w − T|·ρ²·c_p/(μ·k))^⅓ with β = 1/T, and
+/// Q_w = h·A·(T_w − T). Gas viscosity and conductivity follow power laws
+/// in T fitted to air and nitrogen near room temperature:
+/// μ = 1.8·10⁻⁵ Pa s·(T/300 K)^0.7, k = 0.026 W/(m K)·(T/300 K)^0.8.
+/// The coefficient grows with the density, so a vessel exchanges heat
+/// faster full than empty — unlike a constant τ_T (paper Eq. 8).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Convection {
+    /// Inner wall area [m²].
+    pub area: f64,
+    /// c of Nu = c·Ra^⅓ (McAdams: 0.13 for a vertical wall).
+    pub coefficient: f64,
+}
+
+impl Convection {
+    /// h [W/(m² K)] at density ρ, gas temperature T, wall T_w, c_p.
+    pub fn coefficient_at(&self, rho: f64, t: f64, t_wall: f64, cp: f64) -> f64 {
+        let mu = 1.8e-5 * (t / 300.0).powf(0.7);
+        let k = 0.026 * (t / 300.0).powf(0.8);
+        let ra_per_l3 = 9.81 / t * (t_wall - t).abs() * rho * rho * cp / (mu * k);
+        self.coefficient * k * ra_per_l3.cbrt()
+    }
 }
 
 /// Result of [`run_vessels`].
@@ -143,7 +172,10 @@ impl OdeSystem for Sys<'_> {
         let mut qw = 0.0;
         for i in 0..n {
             let (m, t, rho, _, _) = st[i];
-            let it = inv(s.vessels[i].tau_thermal);
+            let mut it = inv(s.vessels[i].tau_thermal);
+            if let Some(c) = s.convection {
+                it += c.coefficient_at(rho, t, s.t_wall, g.cp()) * c.area / (m * g.cv);
+            }
             dy[2 * i] = inflow[i].mdot;
             dy[2 * i + 1] = temperature_rate(g, m, t, rho, inflow[i], 0.0, s.t_wall, it);
             qw += m * g.cv * (s.t_wall - t) * it;

@@ -23,6 +23,7 @@ fn adiabatic_choked_discharge_follows_the_closed_form() {
     let (v, p0, t0, p_atm, b) = (1e-3, 7e5, 292.0, 1.013e5, 0.3);
     let c = 100.0 * LPM_PER_BAR;
     let sys = VesselSystem {
+        convection: None,
         gas: g,
         law: SubsonicLaw::default(),
         t_wall: 292.0,
@@ -61,6 +62,7 @@ fn adiabatic_filling_tends_to_gamma_times_supply_temperature() {
     let g = gas();
     let (v, p0, t0, ps, ts) = (1e-3, 1e3, 292.0, 7e5, 292.0);
     let sys = VesselSystem {
+        convection: None,
         gas: g,
         law: SubsonicLaw::default(),
         t_wall: 292.0,
@@ -102,6 +104,7 @@ fn adiabatic_filling_tends_to_gamma_times_supply_temperature() {
 fn wall_heat_relaxes_with_the_thermal_time_constant() {
     let (tw, t0, tau) = (292.0, 350.0, 2.0);
     let sys = VesselSystem {
+        convection: None,
         gas: gas(),
         law: SubsonicLaw::default(),
         t_wall: tw,

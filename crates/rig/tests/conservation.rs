@@ -14,6 +14,7 @@ use rig::{
 
 fn pair(tau: f64, law: GasLaw) -> VesselSystem {
     VesselSystem {
+        convection: None,
         gas: Gas { law, ..Gas::default() },
         law: SubsonicLaw::default(),
         t_wall: 292.0,

@@ -27,14 +27,7 @@ pub fn matrix_bytes(model: &Model) -> f64 {
     16.0 * n * n
 }
 
-/// A number for a message: plain when moderate, with an exponent otherwise.
-fn short(x: f64) -> String {
-    if x == 0.0 || (1e-3..1e6).contains(&x.abs()) {
-        format!("{x}")
-    } else {
-        format!("{x:e}")
-    }
-}
+use units::show::num as short;
 
 /// Why a run was refused before it started.
 #[derive(Debug, thiserror::Error)]

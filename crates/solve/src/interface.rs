@@ -42,7 +42,7 @@ impl Model {
         let refuse = |message: String| {
             let shown = input.unit.from_si(value);
             let unit = if input.unit.text.is_empty() || input.unit.text == "1" { String::new() } else { format!(" {}", input.unit.text) };
-            InputError { name: input.name.clone(), value: format!("{}{unit}", readable(shown)), message }
+            InputError { name: input.name.clone(), value: format!("{}{unit}", units::show::num(shown)), message }
         };
         if !value.is_finite() {
             return Err(refuse("must be finite".into()));
@@ -76,14 +76,5 @@ impl Model {
             .unwrap_or(f64::NAN);
         }
         Ok(())
-    }
-}
-
-/// A number as people read it: 4, 0.25, 1e300 (not 300 digits).
-fn readable(x: f64) -> String {
-    if x != 0.0 && (x.abs() >= 1e6 || x.abs() < 1e-4) {
-        format!("{x:e}")
-    } else {
-        format!("{}", (x * 1e9).round() / 1e9)
     }
 }

@@ -242,7 +242,7 @@ fn solve_node(
         message,
     };
     if !(lo0.is_finite() && hi0.is_finite() && lo0 > 0.0) {
-        return Err(fail(format!("neighbour pressures not usable ({lo0} .. {hi0} Pa)")));
+        return Err(fail(format!("neighbour pressures not usable ({} .. {} Pa)", units::show::num(lo0), units::show::num(hi0))));
     }
     let mut temp = if t_up.is_finite() { t_up } else { 293.15 };
     let mut p = lo0;
@@ -390,7 +390,7 @@ fn temperature_settled(step: EnergyStep, p: f64, temp: &mut f64) -> Result<bool,
         EnergyStep::Done => Ok(true),
         EnergyStep::Next(t1) => {
             if !t1.is_finite() || t1 <= 0.0 {
-                return Err(format!("junction temperature not finite at p = {p} Pa"));
+                return Err(format!("junction temperature not finite at p = {} Pa", units::show::num(p)));
             }
             let settled = (t1 - *temp).abs() <= 1e-11 * *temp;
             *temp = t1;

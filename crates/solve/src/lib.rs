@@ -4,6 +4,7 @@
 //! junctions ([`junction`]), the Jacobian's structure ([`jacobian`]) and its exact values by the chain rule over the blocks'
 //! partial derivatives ([`exact`], with the per-block fallback [`block_differences`]), stick–slip and end-stop modes of mechanical
 //! nodes ([`mechanics`]), the rest state before t = 0 ([`rest`]), the event loop and result sampling ([`simulate`]),
+//! stepping a model from outside between communication points ([`stepper`]),
 //! the reading of simulation settings ([`settings`]), and the values of the netlist's interface inputs and outputs
 //! ([`interface`]).
 //! Never knows: concrete block types (blocks are reached through the
@@ -15,11 +16,13 @@ pub mod exact;
 pub mod interface;
 pub mod jacobian;
 pub mod junction;
+pub mod linearize;
 pub mod mechanics;
 pub mod model;
 pub mod rest;
 pub mod settings;
 pub mod simulate;
+pub mod stepper;
 
 pub use interface::InputError;
 pub use model::{Model, ModelError};
@@ -29,3 +32,4 @@ pub use simulate::{
     simulate, simulate_observed, Balance, Cancel, Checkpoint, CheckpointKind, EventLog, FinalState, JacobianMethod, MassState, SimOptions,
     SimResult, SolveError, StrokeStatistic,
 };
+pub use stepper::Stepper;

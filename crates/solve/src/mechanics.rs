@@ -36,6 +36,13 @@ pub enum Mode {
     /// At rest. `may_extend`/`may_retract` say in which directions it may
     /// break away (a stop forbids one).
     Held { may_extend: bool, may_retract: bool },
+    /// Moving about v = 0 with no direction: dry friction (Coulomb,
+    /// breakaway, Stribeck) drops out and only its viscous slope c acts,
+    /// M·ẍ = F − c·v. This is what a linearisation about a rest position
+    /// sees of a sliding node (the sign of v is 0 there, as `sign(0) = 0` in
+    /// Simulink Control Design); `crate::linearize` sets it, a simulation
+    /// never does (it has no events and no transition).
+    SlidingViscous,
 }
 
 /// What the node logic needs to know about a node besides its state and forces.
@@ -80,6 +87,7 @@ pub fn acceleration(mode: Mode, f: &NodeForces, v: f64, mass: f64) -> f64 {
     match mode {
         Mode::Sliding { dir } if dir * v < 0.0 => (f.applied - dir * (f.sliding - f.viscous * v.abs()) - f.viscous * v) / mass,
         Mode::Sliding { dir } => (f.applied - dir * f.sliding) / mass,
+        Mode::SlidingViscous => (f.applied - f.viscous * v) / mass,
         Mode::Held { .. } => 0.0,
     }
 }
@@ -94,6 +102,7 @@ pub fn acceleration_partials(mode: Mode, f: &NodeForces, v: f64, mass: f64) -> [
             [1.0 / mass, -dir / mass, 0.0, (dir * v.abs() - v) / mass, (-dir * dir * f.viscous - f.viscous) / mass]
         }
         Mode::Sliding { dir } => [1.0 / mass, -dir / mass, 0.0, 0.0, 0.0],
+        Mode::SlidingViscous => [1.0 / mass, 0.0, 0.0, -v / mass, -f.viscous / mass],
         Mode::Held { .. } => [0.0; 5],
     }
 }
@@ -121,6 +130,7 @@ pub fn roots(mode: Mode, x: f64, v: f64, f: &NodeForces, body: &Body, out: &mut 
             out[0] = if may_extend { f.applied - f.breakaway } else { -1.0 };
             out[1] = if may_retract { -f.applied - f.breakaway } else { -1.0 };
         }
+        Mode::SlidingViscous => out.fill(-1.0),
     }
 }
 
@@ -202,6 +212,7 @@ pub fn transition(mode: Mode, x: f64, v: f64, f: &NodeForces, body: &Body, fired
             };
             mode.map(|mode| Transition { mode, reset: None })
         }
+        Mode::SlidingViscous => None,
     }
 }
 
@@ -218,7 +229,7 @@ pub fn breakaway(mode: Mode, f: &NodeForces) -> Option<Mode> {
                 None
             }
         }
-        Mode::Sliding { .. } => None,
+        Mode::Sliding { .. } | Mode::SlidingViscous => None,
     }
 }
 
@@ -301,6 +312,36 @@ mod tests {
         let (s_right, s_left) = ((a(2e-7) - a(1e-7)) / 1e-7, (a(-1e-7) - a(-2e-7)) / 1e-7);
         assert!((s_right - s_left).abs() < 1e-6 * s_right.abs(), "{s_right} vs {s_left}");
     }
+    #[test]
+    fn sliding_viscous_keeps_only_the_viscous_slope() {
+        let f = NodeForces { applied: 30.0, sliding: 22.0 + 50.0 * 0.2, breakaway: 22.0, viscous: 50.0 };
+        assert_eq!(acceleration(Mode::SlidingViscous, &f, 0.2, 2.0), (30.0 - 50.0 * 0.2) / 2.0);
+        assert_eq!(acceleration(Mode::SlidingViscous, &f, -0.2, 2.0), (30.0 + 50.0 * 0.2) / 2.0);
+        let mut g = [0.0; N_ROOTS];
+        roots(Mode::SlidingViscous, 0.2, 0.0, &f, &BODY, &mut g);
+        assert_eq!(g, [-1.0, -1.0]);
+        assert_eq!(transition(Mode::SlidingViscous, 0.2, 0.0, &f, &BODY, [true, true]), None);
+    }
+
+    #[test]
+    fn acceleration_partials_match_differences_in_every_sliding_mode() {
+        let f = NodeForces { applied: 30.0, sliding: 22.0, breakaway: 25.0, viscous: 50.0 };
+        for (mode, v) in [(Mode::SlidingViscous, 0.2), (Mode::Sliding { dir: 1.0 }, 0.2), (Mode::Sliding { dir: 1.0 }, -0.01)] {
+            let d = acceleration_partials(mode, &f, v, 2.0);
+            let h = 1e-6;
+            let at = |k: usize, s: f64| {
+                let mut x = [f.applied, f.sliding, f.breakaway, f.viscous, v];
+                x[k] += s;
+                let g = NodeForces { applied: x[0], sliding: x[1], breakaway: x[2], viscous: x[3] };
+                acceleration(mode, &g, x[4], 2.0)
+            };
+            for (k, dk) in d.iter().enumerate() {
+                let fd = (at(k, h) - at(k, -h)) / (2.0 * h);
+                assert!((fd - dk).abs() < 1e-6 * (1.0 + dk.abs()), "{mode:?} column {k}: {dk} vs {fd}");
+            }
+        }
+    }
+
     #[test]
     fn breakaway_root_decides_even_at_exactly_the_threshold() {
         // The cause of the stuck piston: the root fired with F − F_s = 0 to the

@@ -60,8 +60,9 @@ pub(crate) struct Slot {
     pub motion: Vec<Motion>,
 }
 
-/// A circuit ready for integration.
-#[derive(Debug)]
+/// A circuit ready for integration; a clone is an independent copy with
+/// every block's discrete state (see [`blocks::block::BlockClone`]).
+#[derive(Debug, Clone)]
 pub struct Model {
     pub circuit: Circuit,
     pub gas: Arc<dyn GasModel>,
@@ -123,11 +124,14 @@ pub(crate) struct WarmStart {
 /// Why the model could not be built or evaluated.
 #[derive(Debug, thiserror::Error)]
 pub enum ModelError {
-    #[error("{what} is not finite at t = {t} s")]
+    #[error("{what} is not finite at t = {} s", units::show::num(*t))]
     NonFinite { t: f64, what: String },
-    #[error("{id} left the physical domain at t = {t} s: p = {p:.4e} Pa, T = {temp:.4e} K (the integrator could not recover with smaller steps)")]
+    #[error(
+        "{id} left the physical domain at t = {} s: p = {p:.4e} Pa, T = {temp:.4e} K (the integrator could not recover with smaller steps)",
+        units::show::num(*t)
+    )]
     NonPhysical { t: f64, id: String, p: f64, temp: f64 },
-    #[error("junction of {ports} at t = {t} s: {message}")]
+    #[error("junction of {ports} at t = {} s: {message}", units::show::num(*t))]
     Junction { t: f64, ports: String, message: String },
 }
 

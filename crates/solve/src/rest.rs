@@ -63,6 +63,7 @@ use crate::model::{Model, ModelError};
 use blocks::block::{Ctx, GasRole, PortFlow};
 use gas::GasState;
 use graph::NodeCausality;
+use units::show::fixed;
 
 /// Probe pressures [Pa] used to find the open paths of a block.
 const PROBE_HIGH: f64 = 10e5;
@@ -556,7 +557,7 @@ fn set_positions(model: &mut Model, report: &mut RestReport) -> Result<(), RestE
         let Some(stops) = model.circuit.instances[block].block.stops() else {
             return Err(RestError::Undetermined {
                 id,
-                message: format!("a net force of {:.1} N moves it and it has no end stop to rest on; give its x0", f.applied),
+                message: format!("a net force of {} N moves it and it has no end stop to rest on; give its x0", fixed(f.applied, 1)),
             });
         };
         let (at, which) = if f.applied > 0.0 { (stops.upper, "upper") } else { (stops.lower, "lower") };
@@ -577,8 +578,10 @@ fn set_positions(model: &mut Model, report: &mut RestReport) -> Result<(), RestE
             return Err(RestError::Undetermined {
                 id,
                 message: format!(
-                    "the net force changes sign between the stops ({:.1} N at x = {:.4} m, {:.1} N at the {which} stop): it rests in between; give its x0",
-                    f.applied, x, g.applied
+                    "the net force changes sign between the stops ({} N at x = {} m, {} N at the {which} stop): it rests in between; give its x0",
+                    fixed(f.applied, 1),
+                    fixed(x, 4),
+                    fixed(g.applied, 1)
                 ),
             });
         }
@@ -586,7 +589,11 @@ fn set_positions(model: &mut Model, report: &mut RestReport) -> Result<(), RestE
             id,
             param: "x0",
             value: at,
-            reason: format!("net force {:.1} N beyond breakaway {:.1} N pushes it to the {which} stop", f.applied, f.breakaway),
+            reason: format!(
+                "net force {} N beyond breakaway {} N pushes it to the {which} stop",
+                fixed(f.applied, 1),
+                fixed(f.breakaway, 1)
+            ),
         });
     }
     Ok(())

@@ -19,6 +19,7 @@ use blocks::block::{CycleRecord, EventKind, MechState};
 use ode::{Advance, Dense, Integrator, IntegratorError, OdeSystem, Options, RhsError, RootDirection, Rosenbrock};
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
+use units::show::{fixed, num};
 
 /// A request to stop runs early, shared between the runs and whoever may
 /// cancel them (Ctrl-C in the Python package). Clones share one flag; a run
@@ -69,8 +70,9 @@ pub struct SimOptions {
     pub max_events: usize,
     /// Integration method.
     pub method: ode::Method,
-    /// How the Jacobian is formed: exact (the default), or by differences
-    /// (for comparisons).
+    /// How the Jacobian is formed: grouped differences (the default, the
+    /// fastest measured, see docs/performance.md), exact, or plain
+    /// differences (for comparisons).
     pub jacobian: JacobianMethod,
     /// Stop early when this flag is raised (see [`Cancel`]).
     pub cancel: Option<Cancel>,
@@ -88,7 +90,7 @@ impl Default for SimOptions {
             max_step: 0.05,
             max_events: 100_000,
             method: ode::Method::default(),
-            jacobian: JacobianMethod::Exact,
+            jacobian: JacobianMethod::GroupedDifferences,
             cancel: None,
         }
     }
@@ -99,10 +101,11 @@ impl Default for SimOptions {
 pub enum JacobianMethod {
     /// Exact, by the chain rule over the blocks' partial derivatives
     /// ([`crate::exact`]); a block without them is differenced alone.
-    #[default]
     Exact,
     /// Differences of the whole model with the columns grouped by the
-    /// circuit's structure ([`crate::jacobian`]) where that pays.
+    /// circuit's structure ([`crate::jacobian`]) where that pays (the
+    /// default: fewer evaluations do not yet make exact faster).
+    #[default]
     GroupedDifferences,
     /// Plain forward differences, one model evaluation per state, dense LU.
     PlainDifferences,
@@ -180,30 +183,31 @@ impl FinalState {
             .iter()
             .map(|m| {
                 format!(
-                    "{} {} at x = {:.1} mm, net force {:.1} N against a breakaway level of {:.1} N",
+                    "{} {} at x = {} mm, net force {} N against a breakaway level of {} N",
                     m.id,
                     m.mode,
-                    (m.x * 1e4).round() / 10.0 + 0.0, // rounded, and + 0.0 turns -0.0 into 0.0
-                    m.applied,
-                    m.breakaway
+                    fixed(m.x * 1e3 + 0.0, 1), // + 0.0 turns -0.0 into 0.0
+                    fixed(m.applied, 1),
+                    fixed(m.breakaway, 1)
                 )
             })
             .collect();
         if !self.pressures.is_empty() {
-            let p: Vec<String> = self.pressures.iter().map(|(id, p)| format!("{id}.p = {:.3} bar", p / 1e5)).collect();
+            let p: Vec<String> = self.pressures.iter().map(|(id, p)| format!("{id}.p = {} bar", fixed(p / 1e5, 3))).collect();
             parts.push(p.join(", "));
         }
         parts.join("; ")
     }
 }
 
-fn mode_name(mode: Mode) -> &'static str {
+pub(crate) fn mode_name(mode: Mode) -> &'static str {
     match mode {
         Mode::Sliding { dir } if dir > 0.0 => "sliding, extending",
         Mode::Sliding { .. } => "sliding, retracting",
         Mode::Held { may_extend: false, .. } => "at the upper stop",
         Mode::Held { may_retract: false, .. } => "at the lower stop",
         Mode::Held { .. } => "stuck",
+        Mode::SlidingViscous => "sliding about v = 0 (viscous friction only)",
     }
 }
 
@@ -330,27 +334,27 @@ pub enum SolveError {
     /// The step-size controller gave up: the state named had the largest
     /// weighted error (usually the component whose parameters make the
     /// problem ill-posed or whose time scale is far below the others).
-    #[error("integration failed: step size fell below {h:.1e} s at t = {t} s (largest error in {state}; check that component's parameters, or raise simulation.rtol)")]
+    #[error("integration failed: step size fell below {h:.1e} s at t = {} s (largest error in {state}; check that component's parameters, or raise simulation.rtol)", num(*t))]
     StepTooSmall { t: f64, h: f64, state: String },
-    #[error("more than {limit} events by t = {t} s (chattering between modes?)")]
+    #[error("more than {limit} events by t = {} s (chattering between modes?)", num(*t))]
     TooManyEvents { t: f64, limit: usize },
-    #[error("at t = {t} s the event conditions of {roots} still hold after handling them {rounds} times")]
+    #[error("at t = {} s the event conditions of {roots} still hold after handling them {rounds} times", num(*t))]
     Unsettled { t: f64, roots: String, rounds: usize },
     #[error("invalid settings: {0}")]
     Settings(String),
     #[error("{0}")]
     Rest(#[from] crate::rest::RestError),
-    #[error("cancelled at t = {t} s")]
+    #[error("cancelled at t = {} s", num(*t))]
     Cancelled { t: f64 },
 }
 
 /// The model seen by the integrator.
-struct System<'a> {
-    model: &'a mut Model,
-    error: Option<ModelError>,
+pub(crate) struct System<'a> {
+    pub(crate) model: &'a mut Model,
+    pub(crate) error: Option<ModelError>,
     /// How the Jacobian is formed.
-    jacobian: &'a mut Jacobian,
-    cancel: Option<&'a Cancel>,
+    pub(crate) jacobian: &'a mut Jacobian,
+    pub(crate) cancel: Option<&'a Cancel>,
 }
 
 impl System<'_> {
@@ -528,32 +532,13 @@ pub fn simulate_observed(model: &mut Model, opts: &SimOptions, observer: &mut dy
 
 fn run(model: &mut Model, opts: &SimOptions, mut observer: Option<&mut dyn FnMut(&Checkpoint)>) -> Result<SimResult, SolveError> {
     if !(opts.t_end > 0.0 && opts.t_end.is_finite()) {
-        return Err(SolveError::Settings(format!("end time must be > 0 s, got {}", opts.t_end)));
-    }
-    if !(opts.rtol > 0.0 && opts.rtol < 1.0 && opts.atol > 0.0) {
-        return Err(SolveError::Settings(format!("tolerances must be in (0, 1): rtol {} atol {}", opts.rtol, opts.atol)));
+        return Err(SolveError::Settings(format!("end time must be > 0 s, got {}", num(opts.t_end))));
     }
     let rest =
         if model.circuit.simulation.initial == graph::netlist::InitialMode::Rest { crate::rest::apply(model)? } else { Default::default() };
     let mut y = model.initial_state();
     let n = model.dim();
-    let scales = model.state_scales(&y);
-    let mut atol: Vec<f64> = scales.iter().map(|s| opts.atol * s).collect();
-    for a in atol[n - model.n_quadratures()..].iter_mut() {
-        *a = 1e30; // quadratures (balances, statistics) do not steer the step size
-    }
-    let options = Options {
-        rtol: opts.rtol,
-        atol,
-        h_init: None,
-        h_max: opts.max_step,
-        h_min: 1e-14,
-        max_steps: 50_000_000,
-        root_tol: 1e-12,
-        event_window: 0.0,
-        event_window_per_step: opts.rtol,
-    };
-    let mut integrator = Rosenbrock::with_method(options, n, opts.method);
+    let mut integrator = integrator_for(model, opts, &y)?;
     let mut jacobian = Jacobian::for_model(model, opts.jacobian);
     let mut t = 0.0;
     let mut result = SimResult {
@@ -594,12 +579,7 @@ fn run(model: &mut Model, opts: &SimOptions, mut observer: Option<&mut dyn FnMut
     model.velocity_band = opts.atol;
 
     // initial modes: at rest where v = 0, then break away if the forces say so
-    model.eval(t, &y, None, None)?;
-    for node in 0..model.circuit.mechanical_nodes.len() {
-        let m = model.node_mech[node];
-        let stops = model.circuit.instances[model.circuit.mechanical_nodes[node].inertia.block].block.stops();
-        model.modes[node] = if m.v == 0.0 { mechanics::held_at(m.x, stops) } else { Mode::Sliding { dir: m.v.signum() } };
-    }
+    initial_modes(model, t, &y)?;
     resolve_events(model, t, &mut y, &[], &[], &mut result)?;
     model.eval(t, &y, None, None)?;
     let initial = model.stored(t, &y);
@@ -650,14 +630,12 @@ fn run(model: &mut Model, opts: &SimOptions, mut observer: Option<&mut dyn FnMut
                 }
             };
             let r = integrator.advance(&mut sys, &mut t, &mut y, t_stop, &mut dense_observer);
-            match (r, sys.error.take()) {
-                (Ok(a), _) => a,
-                (Err(_), _) if opts.cancel.as_ref().is_some_and(Cancel::is_cancelled) => return Err(SolveError::Cancelled { t }),
-                (Err(_), Some(model_error)) => return Err(model_error.into()),
-                (Err(IntegratorError::StepSizeTooSmall { t, h, index }), None) => {
-                    return Err(SolveError::StepTooSmall { t, h, state: sys.model.state_name(index) })
+            match r {
+                Ok(a) => a,
+                Err(e) => {
+                    let cancelled = opts.cancel.as_ref().is_some_and(Cancel::is_cancelled);
+                    return Err(advance_error(e, sys.error.take(), sys.model, cancelled, t));
                 }
-                (Err(e), None) => return Err(e.into()),
             }
         };
         if let Some(obs) = observer.as_mut() {
@@ -682,12 +660,7 @@ fn run(model: &mut Model, opts: &SimOptions, mut observer: Option<&mut dyn FnMut
         };
         if let Some(crossings) = crossings {
             // time events due now, also when a root landed on the same instant
-            let due: Vec<usize> = (0..model.circuit.instances.len())
-                .filter(|&bi| {
-                    let next = model.circuit.instances[bi].block.next_time_event(t - 1e-12 * t.max(1.0));
-                    matches!(next, Some(d) if (d - t).abs() <= 1e-12 * t.max(1.0))
-                })
-                .collect();
+            let due = due_time_events(model, t);
             if !crossings.is_empty() || !due.is_empty() {
                 n_events += 1;
                 if n_events > opts.max_events {
@@ -748,6 +721,65 @@ fn run(model: &mut Model, opts: &SimOptions, mut observer: Option<&mut dyn FnMut
         result.finite_difference_blocks = e.fallback_blocks(model);
     }
     Ok(result)
+}
+
+/// The integrator of a run: tolerances checked, absolute tolerances scaled
+/// by each state's typical size at `y`.
+pub(crate) fn integrator_for(model: &Model, opts: &SimOptions, y: &[f64]) -> Result<Rosenbrock, SolveError> {
+    if !(opts.rtol > 0.0 && opts.rtol < 1.0 && opts.atol > 0.0) {
+        return Err(SolveError::Settings(format!("tolerances must be in (0, 1): rtol {} atol {}", num(opts.rtol), num(opts.atol))));
+    }
+    let n = model.dim();
+    let scales = model.state_scales(y);
+    let mut atol: Vec<f64> = scales.iter().map(|s| opts.atol * s).collect();
+    for a in atol[n - model.n_quadratures()..].iter_mut() {
+        *a = 1e30; // quadratures (balances, statistics) do not steer the step size
+    }
+    let options = Options {
+        rtol: opts.rtol,
+        atol,
+        h_init: None,
+        h_max: opts.max_step,
+        h_min: 1e-14,
+        max_steps: 50_000_000,
+        root_tol: 1e-12,
+        event_window: 0.0,
+        event_window_per_step: opts.rtol,
+    };
+    Ok(Rosenbrock::with_method(options, n, opts.method))
+}
+
+/// Modes of the mechanical nodes at the start of a run: at rest where v = 0
+/// (the event handling that follows breaks them away if the forces say so).
+pub(crate) fn initial_modes(model: &mut Model, t: f64, y: &[f64]) -> Result<(), SolveError> {
+    model.eval(t, y, None, None)?;
+    for node in 0..model.circuit.mechanical_nodes.len() {
+        let m = model.node_mech[node];
+        let stops = model.circuit.instances[model.circuit.mechanical_nodes[node].inertia.block].block.stops();
+        model.modes[node] = if m.v == 0.0 { mechanics::held_at(m.x, stops) } else { Mode::Sliding { dir: m.v.signum() } };
+    }
+    Ok(())
+}
+
+/// The blocks whose time events are due at `t`.
+pub(crate) fn due_time_events(model: &Model, t: f64) -> Vec<usize> {
+    (0..model.circuit.instances.len())
+        .filter(|&bi| {
+            let next = model.circuit.instances[bi].block.next_time_event(t - 1e-12 * t.max(1.0));
+            matches!(next, Some(d) if (d - t).abs() <= 1e-12 * t.max(1.0))
+        })
+        .collect()
+}
+
+/// The error of a failed `advance`: cancellation, the model's own error if it
+/// gave one, else the integrator's (a step-size failure names the state).
+pub(crate) fn advance_error(e: IntegratorError, model_error: Option<ModelError>, model: &Model, cancelled: bool, t: f64) -> SolveError {
+    match (e, model_error) {
+        _ if cancelled => SolveError::Cancelled { t },
+        (_, Some(model_error)) => model_error.into(),
+        (IntegratorError::StepSizeTooSmall { t, h, index }, None) => SolveError::StepTooSmall { t, h, state: model.state_name(index) },
+        (e, None) => e.into(),
+    }
 }
 
 /// The quadratures recorded at the instant `t` (an event), if any.
@@ -849,7 +881,7 @@ const MAX_ROUNDS: usize = 8;
 /// condition holds although nothing reported it) is handled as fired, so a
 /// held or closed mode never outlives its exit condition; the integrator
 /// then restarts with every root ≤ 0, i.e. watched from its "no event" side.
-fn resolve_events(
+pub(crate) fn resolve_events(
     model: &mut Model,
     t: f64,
     y: &mut [f64],

@@ -150,6 +150,7 @@ impl Checker {
                         fail(format!("node {node} held ({mode:?}) with F = {} N against F_s = {} N", f.applied, f.breakaway));
                     }
                 }
+                Mode::SlidingViscous => fail(format!("node {node} in the linearisation's mode during a run")),
                 Mode::Sliding { dir } => {
                     if c.kind == CheckpointKind::Step && v == 0.0 {
                         self.at_rest_steps[node] += 1;

@@ -10,14 +10,15 @@ pub enum UnitError {
     #[error("empty value")]
     Empty,
     /// The text does not start with a number.
-    #[error("cannot read a number in \"{text}\"")]
+    #[error("cannot read a number in \"{}\"", crate::show::text(.text))]
     BadNumber { text: String },
     /// A unit symbol that is not known (with or without a prefix).
-    #[error("unknown unit \"{unit}\" ({accepted})")]
+    #[error("unknown unit \"{}\" ({accepted})", crate::show::text(.unit))]
     UnknownUnit { unit: String, accepted: String },
     /// The unit is valid but measures something else than was asked for.
     #[error(
-        "unit \"{unit}\" is {}, expected {} (accepted: {})",
+        "unit \"{}\" is {}, expected {} (accepted: {})",
+        crate::show::text(.unit),
         .found.with_article(),
         .expected.with_article(),
         .expected.accepted_list()
@@ -26,12 +27,14 @@ pub enum UnitError {
     /// An affine unit (degC, degF) or gauge unit (barg, psig) inside a larger
     /// expression, where its offset would have no meaning.
     #[error(
-        "unit \"{unit}\" has an offset and may only stand alone, not inside \"{expression}\" \
-         (write {instead} there)"
+        "unit \"{}\" has an offset and may only stand alone, not inside \"{}\" \
+         (write {instead} there)",
+        crate::show::text(.unit),
+        crate::show::text(.expression)
     )]
     OffsetInExpression { unit: String, expression: String, instead: &'static str },
     /// A malformed unit expression (parentheses, operators, exponents).
-    #[error("cannot read unit \"{expression}\": {reason}")]
+    #[error("cannot read unit \"{}\": {}", crate::show::text(.expression), crate::show::text(.reason))]
     Syntax { expression: String, reason: String },
     /// The number or its SI value is infinite or NaN.
     #[error("non-finite value")]

@@ -192,13 +192,13 @@ impl fmt::Display for ExprErrorKind {
             | ExprErrorKind::ArgumentDimension(m)
             | ExprErrorKind::DimensionOutOfRange(m)
             | ExprErrorKind::NonFinite(m) => write!(f, "{}", Escaped(m)),
-            ExprErrorKind::BadNumber { number, reason } => write!(f, "number \"{}\" {reason}", Escaped(number)),
-            ExprErrorKind::UnknownUnit { unit, hint } => write!(f, "unknown unit \"{}\" {}", Escaped(unit), Escaped(hint)),
+            ExprErrorKind::BadNumber { number, reason } => write!(f, "number \"{}\" {reason}", shown(number)),
+            ExprErrorKind::UnknownUnit { unit, hint } => write!(f, "unknown unit \"{}\" {}", shown(unit), Escaped(hint)),
             ExprErrorKind::Unit(e) => write!(f, "{}", Escaped(&e.to_string())),
-            ExprErrorKind::UnknownName(name) => write!(f, "unknown name \"{}\"", Escaped(name)),
+            ExprErrorKind::UnknownName(name) => write!(f, "unknown name \"{}\"", shown(name)),
             ExprErrorKind::UnknownFunction(name) => {
                 let known: Vec<&str> = FUNCTIONS.iter().map(|(n, _)| *n).collect();
-                write!(f, "unknown function \"{}\" (known: {})", Escaped(name), known.join(", "))
+                write!(f, "unknown function \"{}\" (known: {})", shown(name), known.join(", "))
             }
             ExprErrorKind::ArgumentCount { function, expected, found } => {
                 write!(f, "{function} takes {expected}, found {found}")
@@ -232,18 +232,15 @@ fn syntax(column: usize, message: String) -> ExprError {
     error(column, ExprErrorKind::Syntax(message))
 }
 
-/// Displays text with control and invisible formatting characters (line
-/// breaks, bidirectional overrides, zero-width characters) as `\u{..}`.
+/// Displays a whole message with hidden characters
+/// ([`crate::show::is_hidden`]) as `\u{..}`; the input it quotes is
+/// already shortened by [`crate::show::text`].
 struct Escaped<'a>(&'a str);
 
 impl fmt::Display for Escaped<'_> {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         for c in self.0.chars() {
-            let invisible = matches!(
-                c,
-                '\u{ad}' | '\u{61c}' | '\u{180e}' | '\u{200b}'..='\u{200f}' | '\u{2028}'..='\u{202e}' | '\u{2060}'..='\u{206f}' | '\u{feff}'
-            );
-            if c.is_control() || invisible {
+            if crate::show::is_hidden(c) {
                 write!(f, "\\u{{{:x}}}", u32::from(c))?;
             } else {
                 f.write_char(c)?;
@@ -253,14 +250,7 @@ impl fmt::Display for Escaped<'_> {
     }
 }
 
-/// A number for messages: plain in a readable range, otherwise scientific.
-fn show(x: f64) -> String {
-    if x == 0.0 || (1e-4..1e15).contains(&x.abs()) {
-        format!("{x}")
-    } else {
-        format!("{x:e}")
-    }
-}
+use crate::show::{num as show, text as shown};
 
 // ---------------------------------------------------------------------------
 // Syntax tree
@@ -403,8 +393,8 @@ struct Tok {
 impl Tok {
     fn describe(&self) -> String {
         match &self.kind {
-            TokKind::Number(_) => format!("number \"{}\"", self.text),
-            TokKind::Name(_) => format!("name \"{}\"", self.text),
+            TokKind::Number(_) => format!("number \"{}\"", shown(&self.text)),
+            TokKind::Name(_) => format!("name \"{}\"", shown(&self.text)),
             TokKind::Sym(c) => format!("\"{c}\""),
             TokKind::End => "the end".to_string(),
         }
@@ -477,7 +467,7 @@ impl Lexer<'_> {
             }
             if !is_ident_start(self.at(self.i + 1)) {
                 let so_far = self.slice(start, self.i + 1);
-                return Err(syntax(self.i + 2, format!("expected a name after \"{so_far}\"")));
+                return Err(syntax(self.i + 2, format!("expected a name after \"{}\"", shown(&so_far))));
             }
             self.i += 1;
         }
@@ -550,6 +540,7 @@ impl Lexer<'_> {
             if let Some(close) = self.matching_parenthesis(self.i + 1) {
                 let whole = format!("{word}{}", self.slice(self.i, close + 1));
                 if parse_unit_expr(&whole).is_ok() {
+                    let number = shown(number);
                     let message = format!(
                         "a unit with parentheses must be in brackets: write {number} [{whole}] \
                          (or ({number} {word})/(...) to divide by an expression)"
@@ -612,14 +603,16 @@ fn unexpected_character(c: char) -> String {
 fn unit_of(text: &str, column: usize, number: &str, bracketed: bool) -> Result<LiteralUnit, ExprError> {
     // Names have '_' or '.', units never: "2 V_port", "4 bar/supply.p".
     let name_like = |t: &str| t.contains(['_', '.']);
+    // what the hints quote, shortened
+    let (number_s, text_s) = (shown(number), shown(text));
     if !bracketed && name_like(text) {
         let (head, tail) = text.rsplit_once('/').unwrap_or(("", text));
         if head.is_empty() && !text.contains('^') {
-            let hint = format!("after {number} (write {number} * {text} to multiply by a parameter)");
+            let hint = format!("after {number_s} (write {number_s} * {text_s} to multiply by a parameter)");
             return Err(error(column, ExprErrorKind::UnknownUnit { unit: text.to_string(), hint }));
         }
         if !head.is_empty() && !name_like(head) && !tail.contains('^') {
-            let hint = format!("in \"{text}\" (write ({number} {head})/{tail} to divide by a parameter)");
+            let hint = format!("in \"{text_s}\" (write ({number_s} {})/{} to divide by a parameter)", shown(head), shown(tail));
             let offset = head.chars().count() + 1;
             return Err(error(column + offset, ExprErrorKind::UnknownUnit { unit: tail.to_string(), hint }));
         }
@@ -630,11 +623,11 @@ fn unit_of(text: &str, column: usize, number: &str, bracketed: bool) -> Result<L
         Ok(parsed) => Ok(LiteralUnit { text: text.to_string(), bracketed, parsed }),
         Err(UnitError::UnknownUnit { unit, accepted }) => {
             let hint = if !bracketed && unit == text {
-                format!("after {number} (write {number} * {text} to multiply by a parameter; {accepted})")
+                format!("after {number_s} (write {number_s} * {text_s} to multiply by a parameter; {accepted})")
             } else if let Some(before) = text.strip_suffix(unit.as_str()).and_then(|t| t.strip_suffix('/')).filter(|_| !bracketed) {
-                format!("in \"{text}\" (write ({number} {before})/{unit} to divide by a parameter; {accepted})")
+                format!("in \"{text_s}\" (write ({number_s} {})/{} to divide by a parameter; {accepted})", shown(before), shown(&unit))
             } else {
-                format!("in \"{text}\" ({accepted})")
+                format!("in \"{text_s}\" ({accepted})")
             };
             let offset = text.find(unit.as_str()).map_or(0, |b| text.get(..b).unwrap_or_default().chars().count());
             Err(error(column + offset, ExprErrorKind::UnknownUnit { unit, hint }))
@@ -712,12 +705,13 @@ impl Parser {
     /// `tok` where `wanted` (e.g. "an operator") should follow a complete value.
     fn unexpected(&self, tok: &Tok, wanted: &str) -> ExprError {
         let prev = self.previous();
-        let after = prev.map(|p| format!(" after \"{}\"", p.text)).unwrap_or_default();
+        let after = prev.map(|p| format!(" after \"{}\"", shown(&p.text))).unwrap_or_default();
         let message = match (&tok.kind, prev.map(|p| &p.kind)) {
             (TokKind::Sym(')'), _) => "unmatched \")\"".to_string(),
             (TokKind::End, _) => format!("expected {wanted}{after}"),
             (TokKind::Name(name), Some(TokKind::Number(lit))) if lit.unit.as_ref().is_some_and(|u| !u.bracketed) => {
-                let (number, unit) = (&lit.text, lit.unit.as_ref().map_or("", |u| u.text.as_str()));
+                let (number, unit) = (shown(&lit.text), shown(lit.unit.as_ref().map_or("", |u| u.text.as_str())));
+                let name = shown(name);
                 format!(
                     "expected {wanted}{after}, found name \"{name}\" (write a unit of several words in brackets, \
                      e.g. {number} [{unit} {name}], or an operator, e.g. {number} {unit} * {name})"
@@ -729,7 +723,7 @@ impl Parser {
     }
 
     fn expected_value(&self, tok: &Tok) -> ExprError {
-        let after = self.previous().map(|p| format!(" after \"{}\"", p.text)).unwrap_or_default();
+        let after = self.previous().map(|p| format!(" after \"{}\"", shown(&p.text))).unwrap_or_default();
         let found = match tok.kind {
             TokKind::End => String::new(),
             _ => format!(", found {}", tok.describe()),
@@ -935,7 +929,7 @@ fn eval(node: &Node, lookup: &mut dyn FnMut(&str) -> Option<Quantity>) -> Result
         Node::Pi => Ok(Quantity::dimensionless(PI)),
         Node::Name { name, column } => match lookup(name) {
             None => Err(error(*column, ExprErrorKind::UnknownName(name.clone()))),
-            Some(q) if !q.value.is_finite() => Err(non_finite(*column, format!("the value of \"{name}\" is {}", q.value))),
+            Some(q) if !q.value.is_finite() => Err(non_finite(*column, format!("the value of \"{}\" is {}", shown(name), show(q.value)))),
             Some(q) => Ok(q),
         },
         Node::Neg(x) => {

@@ -59,6 +59,7 @@ mod dimension;
 mod error;
 pub mod expr;
 mod parse;
+pub mod show;
 
 pub use dimension::{dim, Dimension};
 pub use error::UnitError;

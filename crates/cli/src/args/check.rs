@@ -9,7 +9,7 @@ pub struct CheckArgs {
     /// Netlist file (JSON).
     pub model: PathBuf,
     /// Override a parameter: ID.PARAM=VALUE.
-    #[arg(long = "set", value_name = "ID.PARAM=VALUE")]
+    #[arg(long = "set", value_name = "ID.PARAM=VALUE", allow_hyphen_values = true)]
     pub sets: Vec<String>,
     /// Write the circuit as a Graphviz file.
     #[arg(long, value_name = "FILE.dot")]

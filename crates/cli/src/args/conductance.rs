@@ -18,24 +18,25 @@ pub enum ThermalArg {
 #[derive(clap::Args, Debug)]
 pub struct ConductanceArgs {
     /// Volume discharged (tank plus line), e.g. "1 L" (a bare number is m³).
-    #[arg(long)]
+    // quantities may start with '-': the use case explains why they must be positive
+    #[arg(long, allow_hyphen_values = true)]
     pub volume: String,
     /// CSV file with header t,p (optionally T), SI units: s, Pa absolute, K.
     #[arg(long, value_name = "FILE.csv")]
     pub data: PathBuf,
     /// Atmospheric pressure downstream of the restriction (default: fitted
     /// with C and b, started at 1.01325 bar or at the end of the trace).
-    #[arg(long = "p-atm")]
+    #[arg(long = "p-atm", allow_hyphen_values = true)]
     pub p_atm: Option<String>,
     /// Initial gas (and wall) temperature (default: first T sample, else 293.15 K).
-    #[arg(long = "T0")]
+    #[arg(long = "T0", allow_hyphen_values = true)]
     pub t0: Option<String>,
     /// Thermal model of the tank.
     #[arg(long, value_enum, default_value_t = ThermalArg::Auto)]
     pub thermal: ThermalArg,
     /// Thermal time constant τ_T of the tank, known beforehand, e.g. "1 s"
     /// ("inf": adiabatic, "0": isothermal); replaces the fitted one.
-    #[arg(long = "tau-thermal")]
+    #[arg(long = "tau-thermal", allow_hyphen_values = true)]
     pub tau_thermal: Option<String>,
     /// Fit the pressure trace only, even when the data have a T column (T
     /// still gives T0).
@@ -43,7 +44,7 @@ pub struct ConductanceArgs {
     pub pressure_only: bool,
     /// Critical ratio bounding the choked window of the unloading-time
     /// estimate (default: b from the model fit).
-    #[arg(long = "b-window")]
+    #[arg(long = "b-window", allow_negative_numbers = true)]
     pub b_window: Option<f64>,
     /// Print the report as JSON.
     #[arg(long)]

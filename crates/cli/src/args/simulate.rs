@@ -9,10 +9,10 @@ pub struct SimulateArgs {
     /// Netlist file (JSON).
     pub model: PathBuf,
     /// Override a parameter: ID.PARAM=VALUE (e.g. "flow_control.C=13.2 L/min/bar").
-    #[arg(long = "set", value_name = "ID.PARAM=VALUE")]
+    #[arg(long = "set", value_name = "ID.PARAM=VALUE", allow_hyphen_values = true)]
     pub sets: Vec<String>,
-    /// Number of actuator cycles to run.
-    #[arg(long, conflicts_with = "t_end")]
+    /// Number of actuator cycles to run (at least 1).
+    #[arg(long, value_name = "N", conflicts_with = "t_end", value_parser = super::at_least_one::<u64>, allow_negative_numbers = true)]
     pub cycles: Option<u64>,
     /// End time [s].
     #[arg(long = "t-end", value_name = "SECONDS", allow_negative_numbers = true)]

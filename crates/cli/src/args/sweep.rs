@@ -10,19 +10,20 @@ pub struct SweepArgs {
     pub model: PathBuf,
     /// A parameter and its values: ID.PARAM=V1,V2,... (e.g. "supply.p=4 bar,7 bar").
     /// Repeat for a full factorial; the last --vary changes fastest.
-    #[arg(long = "vary", value_name = "ID.PARAM=V1,V2,...", required = true)]
+    #[arg(long = "vary", value_name = "ID.PARAM=V1,V2,...", required = true, allow_hyphen_values = true)]
     pub vary: Vec<String>,
     /// Override a parameter in every case: ID.PARAM=VALUE.
-    #[arg(long = "set", value_name = "ID.PARAM=VALUE")]
+    #[arg(long = "set", value_name = "ID.PARAM=VALUE", allow_hyphen_values = true)]
     pub sets: Vec<String>,
-    /// Number of actuator cycles per case.
-    #[arg(long)]
+    /// Number of actuator cycles per case (at least 1).
+    #[arg(long, value_name = "N", value_parser = super::at_least_one::<u64>, allow_negative_numbers = true)]
     pub cycles: Option<u64>,
     /// End time of each case [s].
-    #[arg(long = "t-end", value_name = "SECONDS")]
+    #[arg(long = "t-end", value_name = "SECONDS", allow_negative_numbers = true)]
     pub t_end: Option<f64>,
-    /// Worker threads (default: the available parallelism).
-    #[arg(long, value_name = "N")]
+    /// Most worker threads (default: the available parallelism); never more
+    /// than the cases, nor than 4 per available core.
+    #[arg(long, value_name = "N", value_parser = super::at_least_one::<usize>, allow_negative_numbers = true)]
     pub jobs: Option<usize>,
     /// Run only shard K of N (1-based K): the cases whose index mod N is K-1.
     #[arg(long, value_name = "K/N")]
@@ -31,7 +32,7 @@ pub struct SweepArgs {
     #[arg(long, value_name = "FILE.csv|FILE.json")]
     pub out: Option<PathBuf>,
     /// Most cases this process runs (the whole sweep, or its shard); raise it, or split the sweep with --shard.
-    #[arg(long = "max-cases", value_name = "N", default_value_t = DEFAULT_MAX_CASES)]
+    #[arg(long = "max-cases", value_name = "N", default_value_t = DEFAULT_MAX_CASES, allow_negative_numbers = true)]
     pub max_cases: usize,
 }
 
@@ -44,7 +45,7 @@ pub struct MergeArgs {
     #[arg(long, value_name = "FILE.csv|FILE.json")]
     pub out: PathBuf,
     /// Most cases the merged sweep may hold.
-    #[arg(long = "max-cases", value_name = "N", default_value_t = DEFAULT_MAX_CASES)]
+    #[arg(long = "max-cases", value_name = "N", default_value_t = DEFAULT_MAX_CASES, allow_negative_numbers = true)]
     pub max_cases: usize,
 }
 

@@ -1,20 +1,33 @@
 //! `piston_seal_leak`: air passing the piston seal from one chamber to the
 //! other, between the head-side and rod-side chamber ports.
 //!
-//! A seal gap may behave like an orifice or like a long narrow passage, and
-//! cylinder data cannot be expected to come from either law exactly, so the
-//! leak is a blend of the two, of one size:
-//! - an ISO 6358 restriction (paper Eq. 33–35, `conductance` block) of sonic
-//!   conductance (1 − φ)·C, critical ratio b = 0.5 (a narrow annular gap; b
-//!   is not identifiable next to C from cylinder data);
-//! - a laminar capillary (`capillary` block, Hagen–Poiseuille) of coefficient
-//!   κ·φ·C, where κ makes a capillary of k = κ·C pass the same flow as the
-//!   ISO restriction of conductance C from 6 bar to 5 bar at 293.15 K
-//!   (κ ≈ 0.81), so that C reads as the leak's size whatever its law.
+//! A seal gap may behave like an orifice, like a long narrow passage or
+//! like the linear leak of the textbooks, and cylinder data cannot be
+//! expected to come from any law exactly, so the leak is one family of one
+//! size C that spans the three laws met in practice:
+//! - an ISO 6358 orifice (paper Eq. 33–35, `conductance` block), critical
+//!   ratio b = 0.5 (a narrow annular gap; b is not identifiable next to C
+//!   from cylinder data): chokes, grows with the upstream pressure;
+//! - a compressible laminar capillary (`capillary` block, Hagen–Poiseuille,
+//!   ṁ ∝ p_u² − p_d²): never chokes, grows with the mean pressure;
+//! - a flow linear in the pressure difference, ṁ ∝ p_u − p_d, the internal
+//!   leakage law of most pneumatics textbooks (P. Beater, "Pneumatic
+//!   Drives", Springer 2007; E. Richer & Y. Hurmuzlu, J. Dyn. Sys. Meas.
+//!   Control 122 (2000) 416): an incompressible laminar gap. It is built
+//!   from the `conductance` block with its laminar region over the whole
+//!   range (b = 0.001, b_lam = 0.002; ISO 6358-1:2013 makes the flow
+//!   linear in p₁ − p₂ above b_lam).
+//!
+//! Each law is scaled to pass the flow of an ISO orifice of conductance C
+//! from 6 bar to 5 bar at 293.15 K, so that C reads as the leak's size
+//! whatever its law. The shape `law` λ ∈ [0, 2] blends neighbours: λ ∈
+//! [0, 1] is (1 − λ)·orifice + λ·capillary, λ ∈ [1, 2] is
+//! (2 − λ)·capillary + (λ − 1)·linear. The null model (C = 0) lies inside
+//! the family for every λ.
 //!
 //! Parameters: `C` [m³/(s·Pa)] in [0, 5 L/(min·bar)], null 0 (nothing
-//! added); `laminar` φ in [0, 1], a shape parameter (0: orifice, 1:
-//! capillary), scanned at both ends.
+//! added); `law` λ in [0, 2], a shape parameter scanned at 0, 1 and 2 (one
+//! start per law, [`crate::candidates`]).
 //!
 //! Assumptions: quasi-steady flow with no volume of its own; flow runs from
 //! the higher to the lower chamber pressure and carries the upstream
@@ -51,15 +64,15 @@ impl Effect for PistonSealLeak {
                 scan: &[0.03 * L_MIN_BAR, 0.1 * L_MIN_BAR, 0.3 * L_MIN_BAR, 1.0 * L_MIN_BAR, 3.0 * L_MIN_BAR],
             },
             EffectParam {
-                name: "laminar",
+                name: "law",
                 unit: "",
                 lo: 0.0,
-                hi: 1.0,
+                hi: 2.0,
                 start: 0.0,
-                typical: 0.5,
+                typical: 1.0,
                 null: None,
                 scale: Scale::Linear,
-                scan: &[0.0, 1.0],
+                scan: &[0.0, 1.0, 2.0],
             },
         ]
     }
@@ -70,23 +83,27 @@ impl Effect for PistonSealLeak {
         check_len(self, values)?;
         let topo = Topology::of(flat);
         let (head, rod) = topo.chambers().map_err(|e| EffectError::new(self.name(), e))?;
-        let (c, laminar) = (values[0], values[1]);
+        let (c, law) = (values[0], values[1]);
         if c < 0.0 {
             return Err(EffectError::new(self.name(), format!("C = {c} must be >= 0")));
         }
-        if !(0.0..=1.0).contains(&laminar) {
-            return Err(EffectError::new(self.name(), format!("laminar = {laminar} must be in [0, 1]")));
+        if !(0.0..=2.0).contains(&law) {
+            return Err(EffectError::new(self.name(), format!("law = {law} must be in [0, 2]")));
         }
         if c == 0.0 {
             return Ok(());
         }
         let (head_port, rod_port) = (format!("{head}.port"), format!("{rod}.port"));
+        let (orifice, capillary, linear) = shares(law);
         let mut paths = Vec::new();
-        if laminar < 1.0 {
-            paths.push(("conductance", vec![("C", (1.0 - laminar) * c), ("b", ISO_B)]));
+        if orifice > 0.0 {
+            paths.push(("conductance", vec![("C", orifice * c), ("b", ISO_B)]));
         }
-        if laminar > 0.0 {
-            paths.push(("capillary", vec![("k", capillary_equivalent() * laminar * c)]));
+        if capillary > 0.0 {
+            paths.push(("capillary", vec![("k", capillary_equivalent() * capillary * c)]));
+        }
+        if linear > 0.0 {
+            paths.push(("conductance", vec![("C", linear_equivalent() * linear * c), ("b", LINEAR_B), ("b_lam", LINEAR_B_LAM)]));
         }
         for (kind, params) in paths {
             let id = fresh_id(flat, "seal_leak");
@@ -100,6 +117,31 @@ impl Effect for PistonSealLeak {
 
 /// Critical pressure ratio of the orifice part.
 const ISO_B: f64 = 0.5;
+/// Critical and laminar ratios of the linear part: laminar (ṁ ∝ p₁ − p₂)
+/// for every pressure ratio above 0.002.
+const LINEAR_B: f64 = 0.001;
+const LINEAR_B_LAM: f64 = 0.002;
+
+/// Shares (orifice, capillary, linear) of the law λ ∈ [0, 2].
+fn shares(law: f64) -> (f64, f64, f64) {
+    if law <= 1.0 {
+        (1.0 - law, law, 0.0)
+    } else {
+        (0.0, 2.0 - law, law - 1.0)
+    }
+}
+
+/// The conductance C_lin, per unit of ISO conductance, of the linear part:
+/// in its laminar region ṁ = C_lin·ρ_ref·K_T·ω(b_lam)/(1 − b_lam)·(p_u − p_d)
+/// (ISO 6358-1:2013), equal to the b = 0.5 orifice's flow from 6 to 5 bar.
+fn linear_equivalent() -> f64 {
+    let (p_u, p_d) = (6e5, 5e5);
+    let x = (p_d / p_u - ISO_B) / (1.0 - ISO_B);
+    let iso = p_u * (1.0 - x * x).sqrt();
+    let q = (LINEAR_B_LAM - LINEAR_B) / (1.0 - LINEAR_B);
+    let omega_lam = (1.0 - q * q).sqrt();
+    iso * (1.0 - LINEAR_B_LAM) / (omega_lam * (p_u - p_d))
+}
 
 /// κ: the capillary coefficient per unit of ISO conductance that passes the
 /// same mass flow from 6 bar to 5 bar at 293.15 K. The ISO flow there is
@@ -143,14 +185,14 @@ mod tests {
         PistonSealLeak.apply(&mut same, &[0.0, 0.5]).unwrap();
         assert_eq!(same, base);
         assert!(PistonSealLeak.apply(&mut same, &[-1.0, 0.0]).is_err());
-        assert!(PistonSealLeak.apply(&mut same, &[1e-8, 1.5]).is_err());
+        assert!(PistonSealLeak.apply(&mut same, &[1e-8, 2.5]).is_err());
     }
 
     #[test]
-    fn the_laminar_share_moves_the_leak_from_orifice_to_capillary() {
-        let kinds = |laminar: f64| {
+    fn the_law_moves_the_leak_from_orifice_to_capillary_to_linear() {
+        let kinds = |law: f64| {
             let mut f = meter_out();
-            PistonSealLeak.apply(&mut f, &[1.0 * L_MIN_BAR, laminar]).unwrap();
+            PistonSealLeak.apply(&mut f, &[1.0 * L_MIN_BAR, law]).unwrap();
             let mut k: Vec<String> = f.components.iter().filter(|c| c.id.starts_with("seal_leak")).map(|c| c.kind.clone()).collect();
             k.sort();
             k
@@ -158,6 +200,27 @@ mod tests {
         assert_eq!(kinds(0.0), ["conductance"]);
         assert_eq!(kinds(1.0), ["capillary"]);
         assert_eq!(kinds(0.5), ["capillary", "conductance"]);
+        assert_eq!(kinds(2.0), ["conductance"]);
+        assert_eq!(kinds(1.5), ["capillary", "conductance"]);
+        assert_eq!(shares(0.25), (0.75, 0.25, 0.0));
+        assert_eq!(shares(1.75), (0.0, 0.25, 0.75));
+    }
+
+    #[test]
+    fn the_linear_law_passes_the_orifice_flow_at_6_to_5_bar_and_is_linear_in_the_drop() {
+        use gas::GasModel;
+        let gas = gas::IdealGas::air();
+        let c = 1.0 * L_MIN_BAR;
+        let iso = blocks::iso6358::FlowCharacteristic::new(c, ISO_B).unwrap();
+        let lin =
+            blocks::iso6358::FlowCharacteristic::new(linear_equivalent() * c, LINEAR_B).unwrap().with_laminar_ratio(LINEAR_B_LAM).unwrap();
+        let t = 293.15;
+        let (up, down) = (gas.state_pt(6e5, t), gas.state_pt(5e5, t));
+        let a = lin.mass_flow(up.p, up.t, down.p, down.t);
+        assert!((a / iso.mass_flow(up.p, up.t, down.p, down.t) - 1.0).abs() < 1e-9, "{a}");
+        // the same drop at another mean pressure passes the same flow; twice the drop twice the flow
+        assert!((lin.mass_flow(3e5, t, 2e5, t) / a - 1.0).abs() < 1e-9);
+        assert!((lin.mass_flow(7e5, t, 5e5, t) / a - 2.0).abs() < 1e-9);
     }
 
     #[test]

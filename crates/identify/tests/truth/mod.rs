@@ -119,6 +119,8 @@ pub struct Truth {
     pub sensors: SensorSpec,
     /// Thermal time constant of the data's chambers [s].
     pub tau_thermal: f64,
+    /// Cracking pressure of the speed-control valve's check valve [Pa].
+    pub check_cracking: f64,
     /// One line: what was drawn.
     pub description: String,
 }
@@ -132,18 +134,26 @@ fn uniform(rng: &mut Rng, lo: f64, hi: f64) -> f64 {
 /// Modelling choices on which two honest implementations differ.
 ///
 /// Ranges: laminar end region absent or of width 5·10⁻⁴ … 5·10⁻³ (ISO
-/// 6358-2 uses 10⁻³; pneumo 10⁻³), subsonic index 0.48 … 0.52 (ellipse ½);
-/// check valve exact or opening linearly over 0.2 … 3 kPa (pneumo 1 kPa);
-/// limit switches tripping 0 … 100 µm before the ends, 0 … 0.2 ms latency.
-pub fn draw_form(rng: &mut Rng) -> (ModelForm, String) {
+/// 6358-2 uses 10⁻³; pneumo 10⁻³), subsonic index 0.42 … 0.58 for every
+/// restriction (ellipse ½; ISO 6358-1:2013 lets m differ from ½, and a
+/// catalogue rarely gives it); check valve cracking at 0 … 0.3 bar (a
+/// spring-loaded poppet; catalogues of speed-control valves quote
+/// 0.1 … 0.5 bar) and opening exactly or linearly over 0.2 … 20 kPa (pneumo
+/// 1 kPa); limit switches tripping 0 … 100 µm before the ends, 0 … 0.2 ms
+/// latency. Returns the form, the check valve's cracking pressure [Pa] and a
+/// description.
+pub fn draw_form(rng: &mut Rng) -> (ModelForm, f64, String) {
     let laminar = if rng.uniform() < 0.3 { None } else { Some(uniform(rng, 5e-4, 5e-3)) };
-    let index = uniform(rng, 0.48, 0.52);
-    let check = if rng.uniform() < 0.4 { CheckLaw::Exact } else { CheckLaw::Linear { opening: uniform(rng, 200.0, 3000.0) } };
+    let index = uniform(rng, 0.42, 0.58);
+    let cracking = uniform(rng, 0.0, 0.3e5);
+    let check =
+        if rng.uniform() < 0.4 { CheckLaw::Exact } else { CheckLaw::Linear { opening: (uniform(rng, 200f64.ln(), 20e3f64.ln())).exp() } };
     let switches = Switches { tolerance: uniform(rng, 0.0, 100e-6), latency: uniform(rng, 0.0, 0.2e-3), ..Switches::default() };
     let form = ModelForm { subsonic: SubsonicLaw { index, laminar_width: laminar }, check, switches, ..ModelForm::default() };
     let text = format!(
-        "laminar {} index {index:.3} check {} switch tol {:.0} µm latency {:.2} ms",
+        "laminar {} index {index:.3} check cracking {:.0} mbar {} switch tol {:.0} µm latency {:.2} ms",
         laminar.map_or("none".to_string(), |w| format!("{w:.1e}")),
+        cracking / 100.0,
         match check {
             CheckLaw::Exact => "exact".to_string(),
             CheckLaw::Linear { opening } => format!("linear {opening:.0} Pa"),
@@ -151,12 +161,12 @@ pub fn draw_form(rng: &mut Rng) -> (ModelForm, String) {
         switches.tolerance * 1e6,
         switches.latency * 1e3
     );
-    (form, text)
+    (form, cracking, text)
 }
 
 /// The sensors. Nominal: 5 mbar noise and 10 mbar offsets on pressures,
 /// 20 µm noise quantised to 10 µm on position, 1 kHz with 20 µs jitter.
-/// Varied adds: gain errors of σ 0.1 % on pressures, a position offset of
+/// Varied adds: gain errors of σ 0.3 % on pressures, a position offset of
 /// σ 50 µm, jitter 20 … 150 µs, up to 1 % dropped samples and a logger
 /// time skew of up to ±1 ms.
 pub fn draw_sensors(rng: &mut Rng, variation: Variation) -> (SensorSpec, String) {
@@ -168,7 +178,7 @@ pub fn draw_sensors(rng: &mut Rng, variation: Variation) -> (SensorSpec, String)
     if variation == Variation::Nominal {
         return (s, "nominal sensors".into());
     }
-    s.pressure.gain_sd = 1e-3;
+    s.pressure.gain_sd = 3e-3;
     s.position.offset_sd = 50e-6;
     s.jitter_sd = uniform(rng, 20e-6, 150e-6);
     s.dropout = uniform(rng, 0.0, 0.01);
@@ -178,19 +188,25 @@ pub fn draw_sensors(rng: &mut Rng, variation: Variation) -> (SensorSpec, String)
 }
 
 /// The hidden effects of a case at realistic sizes, drawn per seed.
-pub fn draw_effects(case: Case, rng: &mut Rng) -> (Effects, f64, String) {
+///
+/// The leak's law cycles with the seed (seed mod 4: ISO b = 0.3, capillary,
+/// linear in Δp, ISO b = 0.5), so that five seeds cover every law.
+pub fn draw_effects(case: Case, seed: u64, rng: &mut Rng) -> (Effects, f64, String) {
     let mut e = Effects::default();
     let mut tau = 5.0;
     let mut text = Vec::new();
     let leak = |rng: &mut Rng, e: &mut Effects, text: &mut Vec<String>| {
         let c = uniform(rng, 0.25, 0.45);
-        let law = match (rng.uniform() * 3.0) as usize {
+        let law = match (seed % 4) as usize {
             0 => LeakLaw::Iso(Restriction::lpm_per_bar(c, 0.5)),
             1 => LeakLaw::Iso(Restriction::lpm_per_bar(c, 0.3)),
             // a capillary: k = 0.8·C passes the flow of the ISO leak at a
             // drop between a 10 % drop from 5 bar (ISO 1.6 × more) and
             // choked 4 bar → 1 bar (ISO 0.6 × as much)
-            _ => LeakLaw::Laminar { k: 0.8 * c * L_MIN_BAR },
+            2 => LeakLaw::Laminar { k: 0.8 * c * L_MIN_BAR },
+            // linear in Δp (the textbook seal leak): 0.8 × the ISO leak's
+            // flow at 6 → 5 bar per bar of drop
+            _ => LeakLaw::Linear { k_l: 0.8 * iso_flow_6_to_5(c) / 1e5 },
         };
         text.push(format!("leak {law:?}"));
         e.seal_leak = Some(law);
@@ -242,17 +258,24 @@ pub fn draw_effects(case: Case, rng: &mut Rng) -> (Effects, f64, String) {
     (e, tau, text.join(", "))
 }
 
+/// Mass flow [kg/s] of an ISO 6358 restriction of C [L/(min·bar)], b = 0.5,
+/// from 6 to 5 bar at 293.15 K (Eq. 33–35).
+fn iso_flow_6_to_5(c: f64) -> f64 {
+    let q: f64 = (5.0 / 6.0 - 0.5) / 0.5;
+    c * L_MIN_BAR * rig::flow::RHO_N * 6e5 * (1.0 - q * q).sqrt()
+}
+
 /// Draw everything for one seed.
 pub fn draw(case: Case, seed: u64, variation: Variation) -> Truth {
     let mut rng = Rng::stream(seed, 1000 + case as u64);
-    let (effects, tau_thermal, etext) = draw_effects(case, &mut rng);
-    let (form, ftext) = match variation {
-        Variation::Nominal => (ModelForm::default(), "nominal form".to_string()),
+    let (effects, tau_thermal, etext) = draw_effects(case, seed, &mut rng);
+    let (form, check_cracking, ftext) = match variation {
+        Variation::Nominal => (ModelForm::default(), 0.0, "nominal form".to_string()),
         Variation::Varied => draw_form(&mut rng),
     };
     let (sensors, stext) = draw_sensors(&mut rng, variation);
     let description = format!("{}; {ftext}; {stext}", if etext.is_empty() { "nothing hidden".to_string() } else { etext });
-    Truth { form, effects, sensors, tau_thermal, description }
+    Truth { form, effects, sensors, tau_thermal, check_cracking, description }
 }
 
 /// One logged record.
@@ -269,7 +292,7 @@ pub fn records(truth: &Truth, seed: u64, cycles: usize) -> Result<Vec<Record>, S
         .iter()
         .enumerate()
         .map(|(k, &(p, c))| {
-            let rig = Rig::paper_bar_lpm(p, c);
+            let rig = Rig { check_cracking: truth.check_cracking, ..Rig::paper_bar_lpm(p, c) };
             let run = RunSpec { t_end: 60.0, rtol: 1e-7, ..RunSpec::cycles(cycles, 1e-3) };
             let (_, m) = acquire(&rig, &truth.form, &truth.effects, &run, &truth.sensors, seed.wrapping_mul(31).wrapping_add(k as u64))
                 .map_err(|e| e.to_string())?;

@@ -1,0 +1,213 @@
+//! `pneumo linearize`: the linear model of a circuit about an operating
+//! point (issue 25) — A, B, C, D with named states, inputs and outputs in
+//! SI, its modes (eigenvalues, natural frequencies, damping ratios), the
+//! mode of every mechanical node, and Bode data, written to a directory as
+//! one transaction.
+//!
+//! Operating points: `rest` (the netlist's start state) or `t=1.2 s` (the
+//! netlist run by itself to that time, its state carried into the model
+//! driven from outside, see `solve::linearize::point`). Inputs and outputs
+//! are the netlist's interface section. The derivatives are central
+//! differences of the model's rates through one seam
+//! (`solve::linearize::jacobians::jacobians`), to be replaced by exact
+//! Jacobians.
+
+use crate::error::AppError;
+use crate::load::netlist_with_files;
+use crate::output::Transaction;
+use linear::Matrix;
+use solve::linearize::{self, LinearModel, Options, PointKind};
+use std::fmt::Write;
+use std::path::{Path, PathBuf};
+
+/// What to linearise and where to write it.
+#[derive(Debug, Clone, Default)]
+pub struct LinearizeOptions {
+    /// Netlist file (JSON).
+    pub model: PathBuf,
+    /// Overrides `ID.PARAM=VALUE`, applied in order.
+    pub sets: Vec<String>,
+    /// "rest" or "t=1.2 s".
+    pub at: String,
+    /// Directory for A.csv, B.csv, C.csv, D.csv, modes.csv, bode.csv, linear.json.
+    pub out: Option<PathBuf>,
+    /// Keep the states that reach no output.
+    pub keep_all_states: bool,
+}
+
+/// The linear model and its report.
+pub struct Linearized {
+    pub model: LinearModel,
+    pub modes: Vec<linear::modal::Mode>,
+    /// Everything as JSON (what `--json` prints and `linear.json` holds).
+    pub json: serde_json::Value,
+}
+
+fn data(e: impl std::fmt::Display) -> AppError {
+    AppError::Data(e.to_string())
+}
+
+/// The operating point named by `--at`.
+enum At {
+    Rest,
+    Time(f64),
+}
+
+fn parse_at(text: &str) -> Result<At, AppError> {
+    let t = text.trim();
+    if t == "rest" {
+        return Ok(At::Rest);
+    }
+    if let Some(rest) = t.strip_prefix("t=").or_else(|| t.strip_prefix("t =")) {
+        let v = units::parse_quantity(rest.trim(), units::dim::TIME)
+            .map_err(|e| AppError::Usage(format!("--at \"{}\": {e}", graph::escape(text))))?;
+        return Ok(At::Time(v));
+    }
+    Err(AppError::Usage(format!("--at \"{}\": expected rest or t=TIME (e.g. \"t=1.2 s\")", graph::escape(text))))
+}
+
+/// Linearise the netlist of `o` and write the outputs (all or none).
+pub fn linearize(o: &LinearizeOptions) -> Result<Linearized, AppError> {
+    let at = parse_at(&o.at)?;
+    let (mut flat, inputs) = netlist_with_files(&o.model, &[])?;
+    let inputs: Vec<&Path> = inputs.iter().map(|p| p.as_path()).collect();
+    let mut outputs = Transaction::new(&inputs);
+    let files = ["A.csv", "B.csv", "C.csv", "D.csv", "modes.csv", "bode.csv", "linear.json"];
+    let targets: Vec<PathBuf> = o.out.iter().flat_map(|d| files.iter().map(move |f| d.join(f))).collect();
+    outputs.check_targets(&targets.iter().map(|p| p.as_path()).collect::<Vec<_>>())?;
+    for s in &o.sets {
+        graph::apply_set(&mut flat, s)?;
+    }
+    let mut driven = solve::Model::new(graph::build_with(&flat, graph::Drive::External)?);
+    let op = match at {
+        At::Rest => linearize::point::rest(&mut driven).map_err(data)?,
+        At::Time(t) => {
+            let circuit = graph::build(&flat)?;
+            let opts = solve::options_from(&circuit.simulation)?;
+            linearize::point::at_time(solve::Model::new(circuit), &mut driven, &opts, t).map_err(data)?
+        }
+    };
+    let lm = linearize::linearize(&mut driven, &op, &Options { keep_all_states: o.keep_all_states, ..Options::default() }).map_err(data)?;
+    let modes = linear::modal::modes(&lm.a).map_err(data)?;
+    let bode = bode_rows(&lm, &modes)?;
+    let json = to_json(&lm, &modes);
+    if let Some(dir) = &o.out {
+        std::fs::create_dir_all(dir).map_err(|e| AppError::io(dir, e))?;
+        let state_names: Vec<&str> = lm.states.iter().map(|s| s.name.as_str()).collect();
+        let input_names: Vec<&str> = lm.inputs.iter().map(|s| s.name.as_str()).collect();
+        let output_names: Vec<&str> = lm.outputs.iter().map(|s| s.name.as_str()).collect();
+        outputs.add(&dir.join("A.csv"), matrix_csv(&lm.a, &state_names, &state_names).as_bytes())?;
+        outputs.add(&dir.join("B.csv"), matrix_csv(&lm.b, &state_names, &input_names).as_bytes())?;
+        outputs.add(&dir.join("C.csv"), matrix_csv(&lm.c, &output_names, &state_names).as_bytes())?;
+        outputs.add(&dir.join("D.csv"), matrix_csv(&lm.d, &output_names, &input_names).as_bytes())?;
+        outputs.add(&dir.join("modes.csv"), modes_csv(&modes).as_bytes())?;
+        outputs.add(&dir.join("bode.csv"), bode.as_bytes())?;
+        outputs.add(&dir.join("linear.json"), serde_json::to_string_pretty(&json).unwrap_or_default().as_bytes())?;
+    }
+    outputs.commit()?;
+    Ok(Linearized { model: lm, modes, json })
+}
+
+/// A matrix with row names in the first column and column names in the header.
+fn matrix_csv(m: &Matrix, rows: &[&str], cols: &[&str]) -> String {
+    let mut s = String::from("row");
+    for c in cols {
+        let _ = write!(s, ",{c}");
+    }
+    s.push('\n');
+    for (i, r) in rows.iter().enumerate() {
+        s.push_str(r);
+        for j in 0..cols.len() {
+            let _ = write!(s, ",{:e}", m[(i, j)]);
+        }
+        s.push('\n');
+    }
+    s
+}
+
+fn modes_csv(modes: &[linear::modal::Mode]) -> String {
+    let mut s = String::from("re [1/s],im [1/s],natural_frequency [rad/s],frequency [Hz],damping [1]\n");
+    for m in modes {
+        let _ = writeln!(s, "{:e},{:e},{:e},{:e},{:e}", m.eigenvalue.re, m.eigenvalue.im, m.natural_frequency, m.frequency_hz(), m.damping);
+    }
+    s
+}
+
+/// Bode data of every input–output pair: frequency [Hz], then magnitude [dB]
+/// and phase [deg] per pair, "output/input".
+fn bode_rows(lm: &LinearModel, modes: &[linear::modal::Mode]) -> Result<String, AppError> {
+    let (lo, hi) = linear::frequency::default_range(&modes.iter().map(|m| m.natural_frequency).collect::<Vec<_>>());
+    let f = linear::frequency::log_grid(lo, hi, 50);
+    let h = linear::frequency::response(&lm.a, &lm.b, &lm.c, &lm.d, &f).map_err(data)?;
+    let (p, m) = (lm.outputs.len(), lm.inputs.len());
+    let mut s = String::from("f [Hz]");
+    let mut columns = Vec::new();
+    for i in 0..p {
+        for j in 0..m {
+            let _ = write!(s, ",{o}/{u} magnitude [dB],{o}/{u} phase [deg]", o = lm.outputs[i].name, u = lm.inputs[j].name);
+            let (mag, phase) = linear::frequency::bode(&h.iter().map(|hk| hk[i * m + j]).collect::<Vec<_>>());
+            columns.push((mag, phase));
+        }
+    }
+    s.push('\n');
+    for (k, fk) in f.iter().enumerate() {
+        let _ = write!(s, "{fk:e}");
+        for (mag, phase) in &columns {
+            let _ = write!(s, ",{:e},{:e}", mag[k], phase[k]);
+        }
+        s.push('\n');
+    }
+    Ok(s)
+}
+
+fn to_json(lm: &LinearModel, modes: &[linear::modal::Mode]) -> serde_json::Value {
+    let named = |v: &[linearize::Named]| v.iter().map(|n| serde_json::json!({ "name": n.name, "unit": n.unit })).collect::<Vec<_>>();
+    serde_json::json!({
+        "operating_point": { "t": lm.t, "kind": match lm.kind { PointKind::Time => "time", PointKind::Rest => "rest", PointKind::Trim => "trim" },
+                             "x0": lm.x0, "u0": lm.u0, "y0": lm.y0, "dx0": lm.dx0 },
+        "method": lm.method.name(),
+        "states": named(&lm.states),
+        "inputs": named(&lm.inputs),
+        "outputs": named(&lm.outputs),
+        "A": lm.a.to_rows(), "B": lm.b.to_rows(), "C": lm.c.to_rows(), "D": lm.d.to_rows(),
+        "modes": modes.iter().map(|m| serde_json::json!({
+            "re": m.eigenvalue.re, "im": m.eigenvalue.im, "pair": m.pair,
+            "natural_frequency_rad_s": m.natural_frequency, "frequency_hz": m.frequency_hz(),
+            "damping": if m.damping.is_finite() { serde_json::json!(m.damping) } else { serde_json::Value::Null },
+        })).collect::<Vec<_>>(),
+        "mechanics": lm.mechanics.iter().map(|n| serde_json::json!({ "id": n.id, "mode": n.description })).collect::<Vec<_>>(),
+        "left_out": lm.left_out.iter().map(|(s, why)| serde_json::json!({ "state": s, "why": why })).collect::<Vec<_>>(),
+        "skipped_outputs": lm.skipped_outputs.iter().map(|(s, why)| serde_json::json!({ "output": s, "why": why })).collect::<Vec<_>>(),
+    })
+}
+
+/// What `pneumo linearize` prints.
+pub fn text(r: &Linearized) -> String {
+    let lm = &r.model;
+    let mut s = String::new();
+    let _ = writeln!(
+        s,
+        "operating point: {} (t = {} s); derivatives by {}",
+        r.json["operating_point"]["kind"].as_str().unwrap_or(""),
+        lm.t,
+        lm.method.name()
+    );
+    let list = |v: &[linearize::Named]| v.iter().map(|n| format!("{} [{}]", n.name, n.unit)).collect::<Vec<_>>().join(", ");
+    let _ = writeln!(s, "states ({}): {}", lm.states.len(), list(&lm.states));
+    let _ = writeln!(s, "inputs ({}): {}", lm.inputs.len(), list(&lm.inputs));
+    let _ = writeln!(s, "outputs ({}): {}", lm.outputs.len(), list(&lm.outputs));
+    for n in &lm.mechanics {
+        let _ = writeln!(s, "{}: {}", n.id, n.description);
+    }
+    for (state, why) in &lm.left_out {
+        let _ = writeln!(s, "left out: {state} ({why})");
+    }
+    let _ = writeln!(s, "modes:");
+    for m in &r.modes {
+        let lambda =
+            if m.pair { format!("{:.6e} ± {:.6e}j", m.eigenvalue.re, m.eigenvalue.im) } else { format!("{:.6e}", m.eigenvalue.re) };
+        let _ =
+            writeln!(s, "  λ = {lambda} 1/s: ω_n = {:.6} rad/s ({:.4} Hz), ζ = {:.4}", m.natural_frequency, m.frequency_hz(), m.damping);
+    }
+    s
+}

@@ -1,0 +1,37 @@
+//! `pneumo linearize`.
+
+use pneumo_app::linearize::{linearize, text, LinearizeOptions};
+use pneumo_app::AppError;
+use std::path::PathBuf;
+
+#[derive(clap::Args, Debug)]
+pub struct LinearizeArgs {
+    /// Netlist file (JSON) with an interface section (inputs, outputs).
+    pub model: PathBuf,
+    /// Operating point: "rest" or a time of a simulation, "t=1.2 s".
+    #[arg(long, default_value = "rest", value_name = "rest|t=TIME")]
+    pub at: String,
+    /// Override a parameter: ID.PARAM=VALUE.
+    #[arg(long = "set", value_name = "ID.PARAM=VALUE")]
+    pub sets: Vec<String>,
+    /// Write A, B, C, D, modes, Bode data (CSV) and linear.json into this directory.
+    #[arg(long, value_name = "DIR")]
+    pub out: Option<PathBuf>,
+    /// Print the result as JSON.
+    #[arg(long)]
+    pub json: bool,
+    /// Keep the states that reach no output.
+    #[arg(long)]
+    pub all_states: bool,
+}
+
+pub fn run(a: LinearizeArgs) -> Result<(), AppError> {
+    let o = LinearizeOptions { model: a.model, sets: a.sets, at: a.at, out: a.out, keep_all_states: a.all_states };
+    let r = linearize(&o)?;
+    if a.json {
+        println!("{}", serde_json::to_string_pretty(&r.json).unwrap_or_default());
+    } else {
+        print!("{}", text(&r));
+    }
+    Ok(())
+}

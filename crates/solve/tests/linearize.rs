@@ -1,0 +1,219 @@
+//! Linearisation against closed forms (issue 25): a cylinder with both
+//! chambers closed at mid-stroke is a mass between two gas springs.
+//!
+//! Closed form (the pneumatic spring, e.g. Beater, "Pneumatic Drives" §6): a
+//! closed chamber of volume V = V₀ + A·x holding its gas compresses
+//! polytropically, dp/dx = −n p A / V, so the piston of mass M sees the
+//! stiffness k = n (A₁² p₁/V₁ + A₂² p₂/V₂) and ω² = k / M, with n = γ for an
+//! adiabatic wall (τ_T → ∞) and n = 1 for an isothermal one (τ_T → 0). A
+//! viscous friction slope c adds ζ = c / (2 M ω) (τ_T → ∞: the mass–spring–
+//! damper is then the whole dynamics; the gas masses and the entropies are
+//! integrators that do not feed back).
+//!
+//! The second test checks the linear model in time: its step response to a
+//! small force step against the nonlinear simulation, the difference
+//! shrinking as the amplitude squared.
+
+use graph::Drive;
+use serde_json::json;
+use solve::linearize::{self, OperatingPoint, Options, Outputs, PointKind};
+use solve::Model;
+
+mod common;
+
+const BORE: f64 = 0.045;
+const ROD: f64 = 0.015;
+const STROKE: f64 = 0.45;
+const DEAD: f64 = 20e-6;
+const MASS: f64 = 1.0;
+const P_HEAD: f64 = 4e5;
+const P_ROD: f64 = 7e5;
+const P_ATM: f64 = 1e5;
+const X_MID: f64 = 0.225;
+
+fn areas() -> (f64, f64, f64) {
+    let a1 = std::f64::consts::PI / 4.0 * BORE * BORE;
+    let a_rod = std::f64::consts::PI / 4.0 * ROD * ROD;
+    (a1, a1 - a_rod, a_rod)
+}
+
+/// The force that holds the piston where it is with the chambers at their
+/// start pressures: F = −(A₁ p₁ − A₂ p₂ − A_rod p_atm).
+fn holding_force() -> f64 {
+    let (a1, a2, a_rod) = areas();
+    -(a1 * P_HEAD - a2 * P_ROD - a_rod * P_ATM)
+}
+
+/// Both chambers closed (a zero mass-flow source on each port), the piston at
+/// mid-stroke, its load an interface input `F`.
+fn closed_cylinder(tau: &str, friction: bool) -> graph::FlatNetlist {
+    let mut components = vec![
+        json!({ "id": "plug_head", "type": "mass_flow_source", "params": { "mdot": "0 g/s", "T": "293.15 K" } }),
+        json!({ "id": "plug_rod", "type": "mass_flow_source", "params": { "mdot": "0 g/s", "T": "293.15 K" } }),
+        json!({ "id": "head", "type": "chamber",
+                "params": { "dead_volume": format!("{} cm3", DEAD * 1e6), "bore": "45 mm", "orientation": "extend",
+                            "tau_thermal": tau, "T_wall": "293.15 K", "p0": "4 bar", "T0": "293.15 K" } }),
+        json!({ "id": "rod", "type": "chamber",
+                "params": { "dead_volume": format!("{} cm3", DEAD * 1e6), "bore": "45 mm", "rod_diameter": "15 mm",
+                            "orientation": "retract", "length_at_zero": "450 mm",
+                            "tau_thermal": tau, "T_wall": "293.15 K", "p0": "7 bar", "T0": "293.15 K" } }),
+        json!({ "id": "piston", "type": "piston",
+                "params": { "mass": "1 kg", "stroke": "450 mm", "rod_diameter": "15 mm", "p_atm": "1 bar",
+                            "x0": "225 mm", "external_force": format!("{} N", holding_force()) } }),
+    ];
+    let mut connections = vec![
+        json!(["plug_head.port", "head.port"]),
+        json!(["plug_rod.port", "rod.port"]),
+        json!(["head.piston", "piston.rod"]),
+        json!(["rod.piston", "piston.rod"]),
+    ];
+    if friction {
+        components.push(json!({ "id": "friction", "type": "friction",
+            "params": { "k0": "10 N", "k1": "2e-5 N/Pa", "k2": "50 N s/m", "k3": "2e-4 N s/(m Pa)", "k4": 0.9 } }));
+        connections.push(json!(["friction.rod", "piston.rod"]));
+        connections.push(json!({ "from": "head.p", "to": "friction.p1" }));
+        connections.push(json!({ "from": "rod.p", "to": "friction.p2" }));
+    }
+    common::flat_from_json(&json!({
+        "name": "closed_cylinder",
+        "gas": { "model": "ideal", "species": "air" },
+        "components": components,
+        "connections": connections,
+        "interface": {
+            "inputs": { "F": { "parameter": "piston.external_force", "unit": "N" } },
+            "outputs": { "x": { "from": "piston.x", "unit": "mm" }, "p_head": { "from": "head.p", "unit": "bar" } }
+        },
+        "simulation": { "t_end": "0.3 s", "rtol": 1e-10, "atol": 1e-10, "sample_interval": "1 ms", "max_step": "1 ms" }
+    }))
+}
+
+fn driven(flat: &graph::FlatNetlist) -> Model {
+    Model::new(graph::build_with(flat, Drive::External).unwrap_or_else(|e| panic!("build: {e}")))
+}
+
+/// The linear model at the start state, every state kept.
+fn linear_at_start(model: &mut Model) -> linearize::LinearModel {
+    let y = model.initial_state();
+    let op = OperatingPoint { t: 0.0, y, kind: PointKind::Rest, trim: None };
+    let opts = Options { keep_all_states: true, outputs: Outputs::Interface, ..Options::default() };
+    linearize::linearize(model, &op, &opts).unwrap_or_else(|e| panic!("linearize: {e}"))
+}
+
+/// The oscillating mode (the one complex pair).
+fn oscillation(lm: &linearize::LinearModel) -> linear::modal::Mode {
+    let modes = linear::modal::modes(&lm.a).unwrap();
+    let pairs: Vec<_> = modes.iter().filter(|m| m.pair).collect();
+    assert_eq!(pairs.len(), 1, "one oscillating mode expected: {modes:?}");
+    pairs[0].clone()
+}
+
+fn output(lm: &linearize::LinearModel, name: &str) -> usize {
+    lm.outputs.iter().position(|o| o.name == name).unwrap_or_else(|| panic!("no output {name}: {:?}", lm.outputs))
+}
+
+/// ω² = (n/M)(A₁² p₁/V₁ + A₂² p₂/V₂) at mid-stroke.
+fn closed_form_omega(n: f64) -> f64 {
+    let (a1, a2, _) = areas();
+    let (v1, v2) = (DEAD + a1 * X_MID, DEAD + a2 * (STROKE - X_MID));
+    (n / MASS * (a1 * a1 * P_HEAD / v1 + a2 * a2 * P_ROD / v2)).sqrt()
+}
+
+fn gamma(model: &Model) -> f64 {
+    let rho = model.circuit.gas.density(P_HEAD, 293.15);
+    model.circuit.gas.gamma(rho, 293.15)
+}
+
+#[test]
+fn adiabatic_closed_cylinder_oscillates_at_the_pneumatic_spring_frequency() {
+    let mut model = driven(&closed_cylinder("inf", false));
+    let lm = linear_at_start(&mut model);
+    assert_eq!(lm.states.len(), 6, "{:?}", lm.states);
+    assert!(lm.dx0.iter().all(|d| d.abs() < 1e-9), "not an equilibrium: {:?}", lm.dx0);
+    let mode = oscillation(&lm);
+    let expected = closed_form_omega(gamma(&model));
+    let rel = (mode.natural_frequency - expected).abs() / expected;
+    eprintln!("adiabatic: ω = {} rad/s, closed form {expected} rad/s, relative difference {rel:.2e}", mode.natural_frequency);
+    assert!(rel < 1e-6, "ω = {} vs {expected} (rel {rel:e})", mode.natural_frequency);
+    assert!(mode.damping.abs() < 1e-6, "no friction, no heat exchange: ζ = {}", mode.damping);
+    // B: the load enters the acceleration only, as 1/M
+    let v = lm.states.iter().position(|s| s.name == "piston.v").unwrap();
+    assert!((lm.b[(v, 0)] - 1.0 / MASS).abs() < 1e-8, "∂v̇/∂F = {}", lm.b[(v, 0)]);
+    // C: x in SI (m); p_head = m R T / V with m and T states of their own: ∂p/∂x = −p A / V
+    let x = lm.states.iter().position(|s| s.name == "piston.x").unwrap();
+    let (out_x, out_p) = (output(&lm, "x"), output(&lm, "p_head"));
+    assert!((lm.c[(out_x, x)] - 1.0).abs() < 1e-8 && lm.outputs[out_x].unit == "m", "{}", lm.c[(out_x, x)]);
+    let (a1, _, _) = areas();
+    let dp_dx = -P_HEAD * a1 / (DEAD + a1 * X_MID);
+    assert!((lm.c[(out_p, x)] / dp_dx - 1.0).abs() < 1e-8, "∂p/∂x = {} vs {dp_dx}", lm.c[(out_p, x)]);
+    assert_eq!(lm.outputs[out_p].unit, "Pa");
+}
+
+#[test]
+fn isothermal_closed_cylinder_oscillates_at_the_isothermal_spring_frequency() {
+    // τ_T = 1e-7 s: the wall holds the gas temperature; the frequency differs
+    // from the isothermal closed form by O((ω τ_T)²) ≈ 1e-10.
+    let mut model = driven(&closed_cylinder("1e-7 s", false));
+    let lm = linear_at_start(&mut model);
+    let mode = oscillation(&lm);
+    let expected = closed_form_omega(1.0);
+    let rel = (mode.natural_frequency - expected).abs() / expected;
+    eprintln!("isothermal: ω = {} rad/s, closed form {expected} rad/s, relative difference {rel:.2e}", mode.natural_frequency);
+    assert!(rel < 1e-6, "ω = {} vs {expected} (rel {rel:e})", mode.natural_frequency);
+}
+
+#[test]
+fn viscous_friction_damps_as_a_mass_spring_damper() {
+    // About v = 0 the Coulomb level drops out; c = k2 + k3 (p1 − k4 p2), clipped at 0.
+    let mut model = driven(&closed_cylinder("inf", true));
+    let lm = linear_at_start(&mut model);
+    let mode = oscillation(&lm);
+    let c = (50.0 + 2e-4 * (P_HEAD - 0.9 * P_ROD)).max(0.0);
+    assert!(c > 0.0);
+    let omega = closed_form_omega(gamma(&model));
+    let zeta = c / (2.0 * MASS * omega);
+    eprintln!("damping: ζ = {}, predicted {zeta}; ω = {}, predicted {omega}", mode.damping, mode.natural_frequency);
+    assert!((mode.damping - zeta).abs() < 1e-6 * zeta.max(1e-3), "ζ = {} vs {zeta}", mode.damping);
+    assert!((mode.natural_frequency - omega).abs() < 1e-6 * omega);
+    assert!(lm.mechanics[0].description.contains("viscous"), "{}", lm.mechanics[0].description);
+}
+
+/// Largest |δx_linear − δx_nonlinear| over 0.3 s after a load step of `amplitude` N, and the largest |δx|.
+fn step_error(flat: &graph::FlatNetlist, amplitude: f64) -> (f64, f64) {
+    let circuit = graph::build_with(flat, Drive::External).unwrap();
+    let opts = solve::options_from(&circuit.simulation).unwrap();
+    let run = |delta: f64| {
+        let mut m = driven(flat);
+        let u0 = m.input_value(0);
+        m.set_input(0, u0 + delta).unwrap();
+        let r = solve::simulate(&mut m, &opts).unwrap_or_else(|e| panic!("simulate: {e}"));
+        common::series(&r, "piston.x")
+    };
+    let (base, stepped) = (run(0.0), run(amplitude));
+    let mut model = driven(flat);
+    let lm = linear_at_start(&mut model);
+    let h = 1e-3;
+    let samples = 301;
+    let lin = linear::time::step(&lm.a, &lm.b, &lm.c, &lm.d, 0, h, samples).unwrap();
+    let x = output(&lm, "x");
+    let (mut err, mut size) = (0.0f64, 0.0f64);
+    for (k, row) in lin.iter().enumerate() {
+        let t = k as f64 * h;
+        let nonlinear = common::at(&stepped, t) - common::at(&base, t);
+        err = err.max((amplitude * row[x] - nonlinear).abs());
+        size = size.max(nonlinear.abs());
+    }
+    (err, size)
+}
+
+#[test]
+fn step_response_matches_the_nonlinear_model_to_second_order_in_the_amplitude() {
+    // τ_T = 20 ms: the heat exchange damps the oscillation (thermal damping).
+    let flat = closed_cylinder("20 ms", false);
+    let (e1, s1) = step_error(&flat, 10.0);
+    let (e2, s2) = step_error(&flat, 5.0);
+    eprintln!("step 10 N: |δx| ≤ {s1:.3e} m, error {e1:.3e} m; step 5 N: |δx| ≤ {s2:.3e} m, error {e2:.3e} m; ratio {:.3}", e1 / e2);
+    assert!(s1 > 1e-3, "the step moved the piston by only {s1} m");
+    assert!(e1 < 0.02 * s1, "the linear model is off by {e1} m of {s1} m");
+    let ratio = e1 / e2;
+    assert!((3.6..4.4).contains(&ratio), "halving the amplitude divided the error by {ratio}, not ~4");
+}

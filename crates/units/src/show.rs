@@ -1,0 +1,140 @@
+//! One rule for what a message shows: numbers readable at any magnitude and
+//! echoed input escaped and shortened. Every error and warning of pneumo that
+//! prints a number or quotes the user's text goes through here, so that one
+//! line stays one short line whatever the input held (`1e300`, not 300
+//! digits; `5e-324`, not a line of zeros; 100 kB of pasted digits shown as
+//! their start and their length).
+//!
+//! ```
+//! use units::show::{num, fixed, text};
+//! assert_eq!(num(4e5), "400000");
+//! assert_eq!(num(0.25), "0.25");
+//! assert_eq!(num(1e300), "1e300");
+//! assert_eq!(num(5e-324), "5e-324");
+//! assert_eq!(fixed(0.98, 4), "0.9800");
+//! assert_eq!(fixed(1e300, 4), "1.0000e300");
+//! assert_eq!(text("a\u{1b}[2Jb"), "a\\u{1b}[2Jb");
+//! let long = "1".repeat(100_000);
+//! assert_eq!(text(&long), format!("{}… (100000 characters)", "1".repeat(60)));
+//! ```
+
+use std::fmt::Write;
+
+/// Magnitudes shown without an exponent: [1e-4, 1e7).
+fn plain_range(x: f64) -> bool {
+    x == 0.0 || (1e-4..1e7).contains(&x.abs())
+}
+
+/// A number as entered or stored: its shortest form that reads back to the
+/// same `f64` (at most 17 significant digits), with an exponent outside
+/// [1e-4, 1e7): `400000`, `0.25`, `1e300`, `5e-324`, `inf`, `NaN`.
+pub fn num(x: f64) -> String {
+    if !x.is_finite() || plain_range(x) {
+        format!("{x}")
+    } else {
+        format!("{x:e}")
+    }
+}
+
+/// A computed number with `decimals` digits after the point, as `{:.N}`
+/// prints it for ordinary magnitudes (`0.9800`); a magnitude that would need
+/// more than a few digits before the point, or that would show as zero, gets
+/// an exponent with the same number of decimals (`1.0000e300`, `5.0000e-324`).
+pub fn fixed(x: f64, decimals: usize) -> String {
+    let shows_as_zero = x != 0.0 && x.abs() < 0.5 * 10f64.powi(-(decimals.min(300) as i32));
+    if !x.is_finite() || (x.abs() < 1e7 && !shows_as_zero) {
+        format!("{x:.decimals$}")
+    } else {
+        format!("{x:.decimals$e}")
+    }
+}
+
+/// Characters of echoed text kept before it is shortened.
+pub const TEXT_KEPT: usize = 60;
+/// Longest echoed text shown whole [characters].
+pub const TEXT_MAX: usize = 200;
+
+/// Characters that change how the rest of a line reads: control characters
+/// (line breaks, terminal escapes) and invisible formatting (bidirectional
+/// overrides, zero-width characters, the byte-order mark, line separators).
+pub fn is_hidden(c: char) -> bool {
+    c.is_control()
+        || matches!(
+            c,
+            '\u{ad}' | '\u{61c}' | '\u{180e}' | '\u{200b}'..='\u{200f}' | '\u{2028}'..='\u{202e}' | '\u{2060}'..='\u{206f}' | '\u{feff}'
+        )
+}
+
+/// A whole message as one line: hidden characters ([`is_hidden`]) shown as
+/// `\u{..}`, nothing shortened (the input it quotes went through [`text`]).
+pub fn line(message: &str) -> String {
+    let mut out = String::with_capacity(message.len());
+    for c in message.chars() {
+        if is_hidden(c) {
+            let _ = write!(out, "\\u{{{:x}}}", u32::from(c));
+        } else {
+            out.push(c);
+        }
+    }
+    out
+}
+
+/// Text from the input, for a message: hidden characters ([`is_hidden`])
+/// shown as `\u{..}`; more than [`TEXT_MAX`] characters shortened to the
+/// first [`TEXT_KEPT`], an ellipsis and the original length.
+pub fn text(s: &str) -> String {
+    let mut out = String::with_capacity(s.len().min(4 * TEXT_MAX));
+    let long = s.chars().nth(TEXT_MAX).is_some();
+    let keep = if long { TEXT_KEPT } else { TEXT_MAX };
+    let kept: String = s.chars().take(keep).collect();
+    out.push_str(&line(&kept));
+    if long {
+        let _ = write!(out, "… ({} characters)", s.chars().count());
+    }
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn numbers_of_every_magnitude_stay_short_and_read_back() {
+        for x in [0.0, -0.0, 1.0, -4e5, 0.1 + 0.2, 1e300, -1e300, 5e-324, f64::MAX, f64::MIN_POSITIVE, 1e-4, 9.99e6, 1e7, 123456.789] {
+            let s = num(x);
+            assert!(s.len() <= 24, "{x:e}: {s}");
+            assert_eq!(s.parse::<f64>().unwrap(), x, "{s} reads back");
+        }
+        assert_eq!(num(f64::INFINITY), "inf");
+        assert_eq!(num(f64::NAN), "NaN");
+        assert_eq!(num(1e7), "1e7");
+        assert_eq!(num(-2.5e-5), "-2.5e-5");
+    }
+
+    #[test]
+    fn fixed_keeps_ordinary_values_and_bounds_extreme_ones() {
+        assert_eq!(fixed(0.1111, 4), "0.1111");
+        assert_eq!(fixed(-12.3456, 1), "-12.3");
+        assert_eq!(fixed(0.0, 3), "0.000");
+        assert_eq!(fixed(5e-324, 4), "4.9407e-324");
+        assert_eq!(fixed(-1e300, 1), "-1.0e300");
+        assert_eq!(fixed(1.2e-9, 3), "1.200e-9");
+        for x in [1e300, -1e300, 5e-324, f64::MAX, 1e-30, 123.0] {
+            assert!(fixed(x, 4).len() <= 16, "{x:e}: {}", fixed(x, 4));
+        }
+    }
+
+    #[test]
+    fn echoed_text_is_escaped_and_shortened_with_its_length() {
+        assert_eq!(text("supply.p"), "supply.p");
+        assert_eq!(text("a\nb\u{202e}c"), "a\\u{a}b\\u{202e}c");
+        let whole = "x".repeat(TEXT_MAX);
+        assert_eq!(text(&whole), whole);
+        let long = format!("{}\u{1b}", "é".repeat(TEXT_MAX));
+        let shown = text(&long);
+        assert!(shown.ends_with(&format!("… ({} characters)", TEXT_MAX + 1)), "{shown}");
+        assert!(shown.chars().count() < TEXT_KEPT + 30, "{shown}");
+        // escapes of the kept part never grow without bound
+        assert!(text(&"\u{1b}".repeat(10_000)).len() < 10 * TEXT_KEPT, "{}", text(&"\u{1b}".repeat(10_000)));
+    }
+}
