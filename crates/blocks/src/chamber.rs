@@ -183,8 +183,11 @@ impl Chamber {
             // would leave a chamber without a piston, an error far from its cause
             if !(area.is_normal() && area > 0.0) {
                 let why = format!(
-                    "gives a piston area pi/4 (bore^2 - rod_diameter^2) of {area:e} m2 (bore {bore:e} m, rod_diameter {rod:e} m); \
-                     the area must be a positive normal number"
+                    "gives a piston area pi/4 (bore^2 - rod_diameter^2) of {} m2 (bore {} m, rod_diameter {} m); \
+                     the area must be a positive normal number",
+                    units::show::num(area),
+                    units::show::num(bore),
+                    units::show::num(rod)
                 );
                 return Err(crate::BlockError::invalid("bore", &why));
             }

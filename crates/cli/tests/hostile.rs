@@ -365,7 +365,11 @@ fn a_bore_whose_area_underflows_is_refused_naming_component_and_parameter() {
     let dir = Scratch::new("tinybore");
     let m = local_model(&dir);
     // the area pi/4 bore^2 underflows to 0: refused at the chamber, not later as a missing port
-    let err = fails_cleanly(&dir, &["check", &m, "--set", "head.bore=5e-324"], &["\"head\"", "\"bore\"", "positive normal"]);
+    let err = fails_cleanly(
+        &dir,
+        &["check", &m, "--set", "head.bore=5e-324"],
+        &["\"head\"", "\"bore\"", "of 0 m2", "bore 5e-324 m", "positive normal"],
+    );
     assert!(!err.contains("no such port"), "{err}");
     // the built-in cylinder's bore reaches both of its chambers; rod_diameter 0 keeps its own check out of the way
     let built_in = repo().join("models/meter_in.json");
