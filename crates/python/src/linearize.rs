@@ -7,6 +7,9 @@ use crate::errors::IntoPy;
 use pneumo_app::linearize::Linearized;
 use pyo3::prelude::*;
 
+/// Real and imaginary parts of a frequency response, one list per frequency.
+type Response = (Vec<Vec<f64>>, Vec<Vec<f64>>);
+
 #[pyclass(module = "pneumo._pneumo", frozen)]
 pub struct RawLinearization {
     lin: Linearized,
@@ -44,7 +47,7 @@ impl RawLinearization {
 
     /// `(re, im)`: H(j 2π f) at every frequency [Hz], each a list of p·m
     /// values per frequency, row-major (output i, input j at i·m + j).
-    fn frequency_response(&self, py: Python<'_>, f_hz: Vec<f64>) -> PyResult<(Vec<Vec<f64>>, Vec<Vec<f64>>)> {
+    fn frequency_response(&self, py: Python<'_>, f_hz: Vec<f64>) -> PyResult<Response> {
         let h = self.lin.frequency_response(&f_hz).py_err(py)?;
         Ok((h.iter().map(|hk| hk.iter().map(|v| v.re).collect()).collect(), h.iter().map(|hk| hk.iter().map(|v| v.im).collect()).collect()))
     }
