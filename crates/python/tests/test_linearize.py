@@ -192,3 +192,21 @@ def test_a_netlist_without_interface_has_no_inputs_and_its_states_as_outputs(roo
     assert lin.inputs == [] and lin.B.shape == (len(lin.states), 0)
     assert lin.outputs == lin.states
     assert np.all(lin.eigenvalues.real < 0)
+
+
+def test_the_paper_cylinder_numbers_in_docs_linearize_are_what_linearize_gives(paper):
+    """docs/linearize.md states f_n and ζ of the paper's cylinder at 4 and 7
+    bar ("**f_n = 13.667 Hz, ζ = 0.2985**"); they are recomputed here, to the
+    digits written."""
+    import re
+
+    text = (Path(__file__).resolve().parents[3] / "docs" / "linearize.md").read_text()
+    stated = re.findall(r"\*\*f_n = ([0-9.]+) Hz,\s+ζ = ([0-9.]+)\*\*", text)
+    assert len(stated) == 2, stated
+    for (f_text, zeta_text), (p1, p2) in zip(stated, ((4e5, 4.3775e5), (7e5, 7.7525e5))):
+        lin = paper.with_params({"head.p0": p1, "rod.p0": p2}).linearize(at="rest")
+        k = oscillating_mode(lin)
+        f_digits = len(f_text.split(".")[1])
+        z_digits = len(zeta_text.split(".")[1])
+        assert f"{lin.frequencies_hz[k]:.{f_digits}f}" == f_text
+        assert f"{lin.damping_ratios[k]:.{z_digits}f}" == zeta_text
