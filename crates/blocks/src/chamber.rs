@@ -178,7 +178,20 @@ impl Chamber {
             if rod >= bore {
                 return Err(crate::BlockError::invalid("rod_diameter", "must be smaller than bore"));
             }
-            std::f64::consts::PI / 4.0 * (bore * bore - rod * rod)
+            let area = std::f64::consts::PI / 4.0 * (bore * bore - rod * rod);
+            // a bore so small (or so close to the rod) that the area underflows
+            // would leave a chamber without a piston, an error far from its cause
+            if !(area.is_normal() && area > 0.0) {
+                let why = format!(
+                    "gives a piston area pi/4 (bore^2 - rod_diameter^2) of {} m2 (bore {} m, rod_diameter {} m); \
+                     the area must be a positive normal number",
+                    units::show::num(area),
+                    units::show::num(bore),
+                    units::show::num(rod)
+                );
+                return Err(crate::BlockError::invalid("bore", &why));
+            }
+            area
         } else {
             if p.was_given("rod_diameter") {
                 return Err(crate::BlockError::invalid("rod_diameter", "needs bore"));
