@@ -20,6 +20,9 @@ $P plot "$W/mo3.csv" --signals head.T,rod.T -o $F/fig7_temperatures.png --title 
 $P plot "$W/mo3.csv" --signals head.n,rod.n --y-range 0.6,2.2 -o $F/fig8_polytropic.png --title "Instantaneous polytropic index, Eq. 22 (switch 2, 4 bar) — cf. paper Fig. 8"
 $P plot "$W/mo3.csv" --signals head.p,rod.p,piston.x -o $F/meter_out_cycle.png --title "Meter-out cycle (switch 2, 4 bar)"
 
+# The tutorial's first plot (docs/tutorial.md, step 2): simulate --plot as the tutorial runs it.
+$P simulate models/meter_out.json --cycles 3 --plot $F/tutorial_cycle.png > /dev/null
+
 # Normalised trajectories for the four switch positions (paper Fig. 6): extend stroke of the first cycle.
 for c in 1.41 2.68 13.2 210; do
   $P simulate models/meter_out.json --cycles 1 --set "flow_control.C=$c L/min/bar" --out "$W/sw_$c.csv" --signals piston.x,controller.command

@@ -66,6 +66,11 @@ pub struct ConductanceOptions {
     pub b_window: Option<f64>,
     /// The report as JSON instead of text.
     pub json: bool,
+    /// Column of the tank pressure (None: "p"); `tank.p` reads the CSV that
+    /// `pneumo simulate --out` writes.
+    pub p_column: Option<String>,
+    /// Column of the gas temperature (None: "T" when there is one).
+    pub t_column: Option<String>,
 }
 
 /// What the analysis reports: warnings (one line each, starting with the
@@ -124,7 +129,7 @@ pub fn conductance(a: &ConductanceOptions) -> Result<ConductanceReport, AppError
         return Err(AppError::Usage("--p-atm: the atmospheric pressure must be positive (absolute, e.g. \"1.013 bar\")".into()));
     }
     let given_t0 = a.t0.as_deref().map(|text| quantity(text, dim::TEMPERATURE, "T0")).transpose()?;
-    let data = read_discharge_csv(&a.data)?;
+    let data = read_discharge_csv(&a.data, a.p_column.as_deref(), a.t_column.as_deref())?;
     let t0 = match (given_t0, &data.temperature) {
         (Some(t0), _) => t0,
         (None, Some(t)) => {
@@ -167,20 +172,57 @@ pub fn conductance(a: &ConductanceOptions) -> Result<ConductanceReport, AppError
     Ok(ConductanceReport { warnings, text })
 }
 
-/// Read the discharge CSV; every error names the file and line.
-pub fn read_discharge_csv(path: &Path) -> Result<DischargeData, AppError> {
+/// Read the discharge CSV, its pressure and temperature from the named
+/// columns (None: "p" and "T"); every error names the file and line.
+pub fn read_discharge_csv(path: &Path, p_column: Option<&str>, t_column: Option<&str>) -> Result<DischargeData, AppError> {
     let text = crate::load::read_input_text(path, "data").map_err(|e| AppError::io(path, e))?;
-    parse_discharge_csv(&text, &crate::error::shown_path(path))
+    parse_columns(&text, &crate::error::shown_path(path), p_column, t_column)
 }
 
+#[cfg(test)]
 fn parse_discharge_csv(text: &str, origin: &str) -> Result<DischargeData, AppError> {
+    parse_columns(text, origin, None, None)
+}
+
+fn parse_columns(text: &str, origin: &str, p_column: Option<&str>, t_column: Option<&str>) -> Result<DischargeData, AppError> {
     // the table itself (header, comments, numbers, increasing t) is read by
     // the one CSV reader of measured data; the discharge test adds its own
     // requirements: a pressure column, every sample present, p and T > 0
     let table = identify::data::parse_csv(text, origin).map_err(|e| AppError::Data(e.to_string()))?;
-    let p_col = table.channel("p").ok_or_else(|| {
-        AppError::Data(format!("{origin}: header must name columns \"t\" and \"p\" (optionally \"T\"), found t,{}", table.names.join(",")))
-    })?;
+    let shown = |names: &[String]| crate::error::one_line(&names.join(","));
+    let p_col = match p_column {
+        Some(name) => table.channel(name).ok_or_else(|| {
+            let hint = blocks::suggest::did_you_mean(name, table.names.iter().map(String::as_str));
+            AppError::Data(format!(
+                "{origin}: no column \"{}\" (--p-column){hint}; found t,{}",
+                units::show::text(name),
+                shown(&table.names)
+            ))
+        })?,
+        None => table.channel("p").ok_or_else(|| {
+            // pneumo simulate's CSV names its columns id.signal: point at the option that reads them
+            let pressures: Vec<&str> = table.names.iter().map(String::as_str).filter(|n| n.ends_with(".p")).collect();
+            let hint = match pressures.first() {
+                Some(first) => format!(" (a pneumo simulate result? give --p-column {first}; pressure columns: {})", pressures.join(", ")),
+                None => " (or name the pressure column with --p-column)".to_string(),
+            };
+            AppError::Data(format!(
+                "{origin}: header must name columns \"t\" and \"p\" (optionally \"T\"), found t,{}{hint}",
+                shown(&table.names)
+            ))
+        })?,
+    };
+    let t_col = match t_column {
+        Some(name) => Some(table.channel(name).ok_or_else(|| {
+            let hint = blocks::suggest::did_you_mean(name, table.names.iter().map(String::as_str));
+            AppError::Data(format!(
+                "{origin}: no column \"{}\" (--T-column){hint}; found t,{}",
+                units::show::text(name),
+                shown(&table.names)
+            ))
+        })?),
+        None => table.channel("T"),
+    };
     let at = |i: usize| table.lines.get(i).copied().unwrap_or(0);
     let column = |c: usize, name: &str, unit: &str| -> Result<Vec<f64>, AppError> {
         table.values[c]
@@ -197,8 +239,9 @@ fn parse_discharge_csv(text: &str, origin: &str) -> Result<DischargeData, AppErr
             })
             .collect()
     };
-    let p = column(p_col, "p", "Pa")?;
-    let temperature = table.channel("T").map(|c| column(c, "T", "K")).transpose()?;
+    let p = column(p_col, p_column.unwrap_or("p"), "Pa")?;
+    let t_name = t_column.unwrap_or("T");
+    let temperature = t_col.map(|c| column(c, t_name, "K")).transpose()?;
     DischargeData::new(table.times, p, temperature).map_err(|e| AppError::Data(format!("{origin}: {e}")))
 }
 

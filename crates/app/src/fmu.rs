@@ -157,10 +157,20 @@ pub fn runtime_beside_executable() -> Result<PathBuf, AppError> {
 /// Export the netlist at `model` as an FMU at `out`, with the runtime
 /// library at `runtime`. Nothing is written unless everything succeeds.
 pub fn export(model: &Path, out: &Path, runtime: &Path) -> Result<(), AppError> {
-    let tx = Transaction::new(&[model]);
-    tx.check_targets(&[out])?;
+    Transaction::new(&[model]).check_targets(&[out])?;
     let (flat, source) = Source::read(model)?;
-    let vars = variables(&flat)?;
+    export_source(&flat, &source, out, runtime)
+}
+
+/// Export a netlist held in memory (`flat` loaded from `source`, without
+/// overrides: the FMU carries the files of `source` as they are) as an FMU
+/// at `out`. The Python package's `pneumo.export_fmu` calls this.
+pub fn export_source(flat: &FlatNetlist, source: &Source, out: &Path, runtime: &Path) -> Result<(), AppError> {
+    let model = source.path.as_path();
+    let read: Vec<&Path> = source.files.iter().map(|(p, _)| p.as_path()).collect();
+    let tx = Transaction::new(&read);
+    tx.check_targets(&[out])?;
+    let vars = variables(flat)?;
     if !vars.iter().any(|v| v.causality == Causality::Output) {
         return Err(AppError::Usage(format!(
             "{}: the netlist declares no interface outputs; an FMU needs at least one (docs/netlist.md, \"Model interface\")",
@@ -173,12 +183,12 @@ pub fn export(model: &Path, out: &Path, runtime: &Path) -> Result<(), AppError> 
             shown_path(runtime)
         ))
     })?;
-    let circuit = graph::build(&flat)?;
+    let circuit = graph::build(flat)?;
     let opts = solve::options_from(&circuit.simulation)?;
     let id = model_identifier(&flat.name);
-    let description = netlist_description(&source);
-    let xml = model_description(&flat.name, &id, description.as_deref(), &guid(&source), &vars, opts.t_end);
-    let bytes = zip_fmu(&xml, &id, &library, &resources(&source)?).map_err(|e| AppError::io(out, e))?;
+    let description = netlist_description(source);
+    let xml = model_description(&flat.name, &id, description.as_deref(), &guid(source), &vars, opts.t_end);
+    let bytes = zip_fmu(&xml, &id, &library, &resources(source)?).map_err(|e| AppError::io(out, e))?;
     let mut tx = tx;
     tx.add(out, &bytes)?;
     tx.commit()

@@ -60,10 +60,10 @@ fn parse_at(text: &str) -> Result<At, AppError> {
     }
     if let Some(rest) = t.strip_prefix("t=").or_else(|| t.strip_prefix("t =")) {
         let v = units::parse_quantity(rest.trim(), units::dim::TIME)
-            .map_err(|e| AppError::Usage(format!("--at \"{}\": {e}", graph::escape(text))))?;
+            .map_err(|e| AppError::Usage(format!("operating point \"{}\": {e}", graph::escape(text))))?;
         return Ok(At::Time(v));
     }
-    Err(AppError::Usage(format!("--at \"{}\": expected rest or t=TIME (e.g. \"t=1.2 s\")", graph::escape(text))))
+    Err(AppError::Usage(format!("operating point \"{}\": expected rest or t=TIME (e.g. \"t=1.2 s\")", graph::escape(text))))
 }
 
 /// Linearise the netlist of `o` and write the outputs (all or none).
@@ -78,20 +78,10 @@ pub fn linearize(o: &LinearizeOptions) -> Result<Linearized, AppError> {
     for s in &o.sets {
         graph::apply_set(&mut flat, s)?;
     }
-    let mut driven = solve::Model::new(graph::build_with(&flat, graph::Drive::External)?);
-    let op = match at {
-        At::Rest => linearize::point::rest(&mut driven).map_err(data)?,
-        At::Time(t) => {
-            let circuit = graph::build(&flat)?;
-            let opts = solve::options_from(&circuit.simulation)?;
-            linearize::point::at_time(solve::Model::new(circuit), &mut driven, &opts, t).map_err(data)?
-        }
-    };
-    let lm = linearize::linearize(&mut driven, &op, &Options { keep_all_states: o.keep_all_states, ..Options::default() }).map_err(data)?;
-    let modes = linear::modal::modes(&lm.a).map_err(data)?;
-    let bode = bode_rows(&lm, &modes)?;
-    let json = to_json(&lm, &modes);
+    let r = linearize_at(&flat, at, o.keep_all_states)?;
     if let Some(dir) = &o.out {
+        let lm = &r.model;
+        let bode = r.bode_csv()?;
         std::fs::create_dir_all(dir).map_err(|e| AppError::io(dir, e))?;
         let state_names: Vec<&str> = lm.states.iter().map(|s| s.name.as_str()).collect();
         let input_names: Vec<&str> = lm.inputs.iter().map(|s| s.name.as_str()).collect();
@@ -100,12 +90,82 @@ pub fn linearize(o: &LinearizeOptions) -> Result<Linearized, AppError> {
         outputs.add(&dir.join("B.csv"), matrix_csv(&lm.b, &state_names, &input_names).as_bytes())?;
         outputs.add(&dir.join("C.csv"), matrix_csv(&lm.c, &output_names, &state_names).as_bytes())?;
         outputs.add(&dir.join("D.csv"), matrix_csv(&lm.d, &output_names, &input_names).as_bytes())?;
-        outputs.add(&dir.join("modes.csv"), modes_csv(&modes).as_bytes())?;
+        outputs.add(&dir.join("modes.csv"), modes_csv(&r.modes).as_bytes())?;
         outputs.add(&dir.join("bode.csv"), bode.as_bytes())?;
-        outputs.add(&dir.join("linear.json"), serde_json::to_string_pretty(&json).unwrap_or_default().as_bytes())?;
+        outputs.add(&dir.join("linear.json"), serde_json::to_string_pretty(&r.json).unwrap_or_default().as_bytes())?;
     }
     outputs.commit()?;
+    Ok(r)
+}
+
+/// Linearise a netlist already loaded (overrides applied) at the operating
+/// point `at` ("rest" or "t=1.2 s"); writes nothing. The Python package's
+/// `Model.linearize` calls this.
+pub fn linearize_netlist(flat: &graph::FlatNetlist, at: &str, keep_all_states: bool) -> Result<Linearized, AppError> {
+    linearize_at(flat, parse_at(at)?, keep_all_states)
+}
+
+fn linearize_at(flat: &graph::FlatNetlist, at: At, keep_all_states: bool) -> Result<Linearized, AppError> {
+    let mut driven = solve::Model::new(graph::build_with(flat, graph::Drive::External)?);
+    let op = match at {
+        At::Rest => linearize::point::rest(&mut driven).map_err(data)?,
+        At::Time(t) => {
+            let circuit = graph::build(flat)?;
+            let opts = solve::options_from(&circuit.simulation)?;
+            linearize::point::at_time(solve::Model::new(circuit), &mut driven, &opts, t).map_err(data)?
+        }
+    };
+    let lm = linearize::linearize(&mut driven, &op, &Options { keep_all_states, ..Options::default() }).map_err(data)?;
+    let modes = linear::modal::modes(&lm.a).map_err(data)?;
+    let json = to_json(&lm, &modes);
     Ok(Linearized { model: lm, modes, json })
+}
+
+impl Linearized {
+    /// The default Bode frequencies [Hz]: whole decades around the modes'
+    /// natural frequencies, 50 points a decade.
+    pub fn bode_frequencies(&self) -> Vec<f64> {
+        let (lo, hi) = linear::frequency::default_range(&self.modes.iter().map(|m| m.natural_frequency).collect::<Vec<_>>());
+        linear::frequency::log_grid(lo, hi, 50)
+    }
+
+    /// H(j 2π f) at every frequency [Hz]: p × m values per frequency,
+    /// row-major (output i, input j at `i * m + j`).
+    pub fn frequency_response(&self, f_hz: &[f64]) -> Result<Vec<Vec<linear::Complex>>, AppError> {
+        let lm = &self.model;
+        if let Some(bad) = f_hz.iter().find(|f| !f.is_finite() || **f < 0.0) {
+            return Err(AppError::Usage(format!("frequency {} Hz: frequencies must be finite and not negative", units::show::num(*bad))));
+        }
+        linear::frequency::response(&lm.a, &lm.b, &lm.c, &lm.d, f_hz).map_err(data)
+    }
+
+    /// Bode data of every input–output pair at the default frequencies
+    /// (`bode.csv`): frequency [Hz], then magnitude [dB] and phase [deg] per
+    /// pair, "output/input".
+    pub fn bode_csv(&self) -> Result<String, AppError> {
+        let f = self.bode_frequencies();
+        let h = self.frequency_response(&f)?;
+        let lm = &self.model;
+        let (p, m) = (lm.outputs.len(), lm.inputs.len());
+        let mut s = String::from("f [Hz]");
+        let mut columns = Vec::new();
+        for i in 0..p {
+            for j in 0..m {
+                let _ = write!(s, ",{o}/{u} magnitude [dB],{o}/{u} phase [deg]", o = lm.outputs[i].name, u = lm.inputs[j].name);
+                let (mag, phase) = linear::frequency::bode(&h.iter().map(|hk| hk[i * m + j]).collect::<Vec<_>>());
+                columns.push((mag, phase));
+            }
+        }
+        s.push('\n');
+        for (k, fk) in f.iter().enumerate() {
+            let _ = write!(s, "{fk:e}");
+            for (mag, phase) in &columns {
+                let _ = write!(s, ",{:e},{:e}", mag[k], phase[k]);
+            }
+            s.push('\n');
+        }
+        Ok(s)
+    }
 }
 
 /// A matrix with row names in the first column and column names in the header.
@@ -131,33 +191,6 @@ fn modes_csv(modes: &[linear::modal::Mode]) -> String {
         let _ = writeln!(s, "{:e},{:e},{:e},{:e},{:e}", m.eigenvalue.re, m.eigenvalue.im, m.natural_frequency, m.frequency_hz(), m.damping);
     }
     s
-}
-
-/// Bode data of every input–output pair: frequency [Hz], then magnitude [dB]
-/// and phase [deg] per pair, "output/input".
-fn bode_rows(lm: &LinearModel, modes: &[linear::modal::Mode]) -> Result<String, AppError> {
-    let (lo, hi) = linear::frequency::default_range(&modes.iter().map(|m| m.natural_frequency).collect::<Vec<_>>());
-    let f = linear::frequency::log_grid(lo, hi, 50);
-    let h = linear::frequency::response(&lm.a, &lm.b, &lm.c, &lm.d, &f).map_err(data)?;
-    let (p, m) = (lm.outputs.len(), lm.inputs.len());
-    let mut s = String::from("f [Hz]");
-    let mut columns = Vec::new();
-    for i in 0..p {
-        for j in 0..m {
-            let _ = write!(s, ",{o}/{u} magnitude [dB],{o}/{u} phase [deg]", o = lm.outputs[i].name, u = lm.inputs[j].name);
-            let (mag, phase) = linear::frequency::bode(&h.iter().map(|hk| hk[i * m + j]).collect::<Vec<_>>());
-            columns.push((mag, phase));
-        }
-    }
-    s.push('\n');
-    for (k, fk) in f.iter().enumerate() {
-        let _ = write!(s, "{fk:e}");
-        for (mag, phase) in &columns {
-            let _ = write!(s, ",{:e},{:e}", mag[k], phase[k]);
-        }
-        s.push('\n');
-    }
-    Ok(s)
 }
 
 fn to_json(lm: &LinearModel, modes: &[linear::modal::Mode]) -> serde_json::Value {

@@ -371,6 +371,7 @@ pub fn summary(result: &SimResult, model_name: &str, columns: &[usize]) -> serde
             "steps": result.stats.steps, "rejected": result.stats.rejected,
             "rhs_evaluations": result.rhs_evaluations, "jacobians": result.stats.jacobians,
             "linear_algebra": result.linear_algebra, "evaluations_per_jacobian": result.evaluations_per_jacobian,
+            "jacobian": result.jacobian, "finite_difference_blocks": result.finite_difference_blocks,
             "events": result.events.len(), "samples": result.times.len()
         }
     })

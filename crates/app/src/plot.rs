@@ -31,7 +31,7 @@ use crate::error::AppError;
 use plotters::coord::Shift;
 use plotters::prelude::{
     BitMapBackend, ChartBuilder, Circle, Color, DrawingArea, DrawingAreaErrorKind, DrawingBackend, FontStyle, IntoDrawingArea, IntoFont,
-    LineSeries, PathElement, RGBColor, SVGBackend, SeriesLabelPosition, TextStyle, BLACK, WHITE,
+    IntoLogRange, LineSeries, PathElement, RGBColor, SVGBackend, SeriesLabelPosition, TextStyle, BLACK, WHITE,
 };
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -131,8 +131,28 @@ pub fn plot(o: &PlotOptions) -> Result<(), AppError> {
     outputs.commit()
 }
 
-/// Render the given columns of a result over time; PNG or SVG by the path's extension.
-pub fn traces_image(result: &solve::SimResult, columns: &[usize], path: &Path) -> Result<Vec<u8>, AppError> {
+/// The title of a run's plot: the model, the parameters changed from the
+/// netlist (`--set`, in the order given) and the time span, shortened to
+/// one line a plot can hold.
+pub fn run_title(model: &str, sets: &[String], t0: f64, t1: f64) -> String {
+    const MAX: usize = 110;
+    let span = format!("t = {} … {} s", fmt_num(t0), fmt_num(t1));
+    let model = crate::error::one_line(model);
+    let mut title = if sets.is_empty() {
+        format!("{model} (as in the netlist), {span}")
+    } else {
+        let changed: Vec<String> = sets.iter().map(|s| crate::error::one_line(s.trim())).collect();
+        format!("{model} with {}, {span}", changed.join(", "))
+    };
+    if title.chars().count() > MAX {
+        title = title.chars().take(MAX - 1).collect::<String>() + "…";
+    }
+    title
+}
+
+/// Render the given columns of a result over time under `title`; PNG or SVG
+/// by the path's extension.
+pub fn traces_image(result: &solve::SimResult, columns: &[usize], path: &Path, title: Option<&str>) -> Result<Vec<u8>, AppError> {
     format_of(path)?;
     if columns.is_empty() {
         return Err(AppError::Usage("nothing to plot: no signals selected".into()));
@@ -147,10 +167,11 @@ pub fn traces_image(result: &solve::SimResult, columns: &[usize], path: &Path) -
     let (panels, dropped) = group_panels(items);
     let (t0, t1) = (result.times.first().copied().unwrap_or(0.0), result.t_final);
     let figure = Figure {
-        title: format!("Simulated traces, t = {} … {} s", fmt_num(t0), fmt_num(t1)),
+        title: title.map(str::to_string).unwrap_or_else(|| format!("Simulated traces, t = {} … {} s", fmt_num(t0), fmt_num(t1))),
         x_desc: "time [s]".into(),
         panels,
         note: dropped_note(&dropped),
+        x_log: false,
     };
     render(&figure, path)
 }
@@ -190,6 +211,23 @@ struct Figure {
     x_desc: String,
     panels: Vec<Panel>,
     note: Option<String>,
+    /// A logarithmic horizontal axis (sweeps whose values span decades).
+    x_log: bool,
+}
+
+/// Values that span at least two decades, all positive, are read on a log axis
+/// (a sweep over C = 1.41 … 210 L/min/bar would otherwise crowd three of its
+/// four points into the left edge).
+fn spans_decades(values: impl Iterator<Item = f64>) -> bool {
+    let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
+    for v in values {
+        if !(v > 0.0 && v.is_finite()) {
+            return false;
+        }
+        lo = lo.min(v);
+        hi = hi.max(v);
+    }
+    lo.is_finite() && hi / lo >= 100.0
 }
 
 /// How a quantity is grouped and shown.
@@ -518,7 +556,7 @@ fn overlay_figure(tables: &[Table], signals: &[String], x: Option<&str>, normali
             format!("{prefix}{what} ({} runs)", tables.len())
         }
     };
-    Ok(Figure { title: title.map(str::to_string).unwrap_or(default_title), x_desc, panels, note: dropped_note(&dropped) })
+    Ok(Figure { title: title.map(str::to_string).unwrap_or(default_title), x_desc, panels, note: dropped_note(&dropped), x_log: false })
 }
 
 /// Display unit of a swept parameter column "id.param" from the block registry,
@@ -621,11 +659,14 @@ fn sweep_figure(table: &Table, x: &str, y: &str, series: Option<&str>, title: Op
         })
         .collect();
     let x_desc = if x_q.display == "-" { x_q.name.clone() } else { x_q.axis() };
+    let traces: Vec<Trace> = traces;
+    let x_log = spans_decades(traces.iter().flat_map(|t| t.points.iter().map(|p| p.0)));
     Ok(Figure {
         title: title.map(str::to_string).unwrap_or_else(|| format!("{} vs {}", y_q.name, table.columns[xc])),
-        x_desc,
+        x_desc: if x_log { format!("{x_desc} (log scale)") } else { x_desc },
         panels: vec![Panel { y_desc: y_q.axis(), traces }],
         note: None,
+        x_log,
     })
 }
 
@@ -791,34 +832,18 @@ fn segments(points: &[(f64, Option<f64>)]) -> Vec<Vec<(f64, f64)>> {
     out
 }
 
-fn draw<DB: DrawingBackend>(root: &DrawingArea<DB, Shift>, fig: &Figure) -> Result<(), String> {
-    let e = |x: DrawingAreaErrorKind<DB::ErrorType>| x.to_string();
-    root.fill(&WHITE).map_err(e)?;
-    let body = root.titled(&fig.title, (FONT_FAMILY, 24)).map_err(e)?;
-    let body = match &fig.note {
-        Some(note) => {
-            let h = body.dim_in_pixel().1 as i32;
-            let (main, foot) = body.split_vertically(h - NOTE_HEIGHT as i32);
-            foot.draw_text(note, &TextStyle::from((FONT_FAMILY, 14).into_font()), (12, 6)).map_err(e)?;
-            main
-        }
-        None => body,
-    };
-    let areas = body.split_evenly((fig.panels.len(), 1));
-    let x_all = fig.panels.iter().flat_map(|p| p.traces.iter()).flat_map(|t| t.points.iter().map(|p| p.0));
-    let (x_lo, x_hi) = axis_range(x_all, 0.0);
-    for (i, (area, panel)) in areas.iter().zip(&fig.panels).enumerate() {
-        let last = i + 1 == fig.panels.len();
-        let y_all = panel.traces.iter().flat_map(|t| t.points.iter().filter_map(|p| p.1));
-        let (y_lo, y_hi) = axis_range(y_all, 0.05);
-        let mut chart = ChartBuilder::on(area)
-            .margin(10)
-            .margin_right(30)
-            .x_label_area_size(if last { 50 } else { 30 })
-            .y_label_area_size(90)
-            .build_cartesian_2d(x_lo..x_hi, y_lo..y_hi)
-            .map_err(e)?;
+/// Mesh, traces and legend of one panel, for a linear or a logarithmic
+/// horizontal axis (two chart types with the same drawing calls). Tick
+/// labels are short numbers, at most eight along the time or sweep axis so
+/// that they never overlap.
+macro_rules! fill_panel {
+    ($chart:ident, $panel:ident, $last:ident, $fig:ident, $e:ident) => {{
+        let mut chart = $chart;
+        let (panel, last, fig, e) = ($panel, $last, $fig, $e);
+        let x_format = |v: &f64| fmt_num(*v);
+        let y_format = |v: &f64| fmt_num(*v);
         let mut mesh = chart.configure_mesh();
+        mesh.x_labels(8).y_labels(8).x_label_formatter(&x_format).y_label_formatter(&y_format);
         mesh.y_desc(panel.y_desc.as_str())
             .label_style((FONT_FAMILY, 14))
             .axis_desc_style((FONT_FAMILY, 16))
@@ -852,6 +877,38 @@ fn draw<DB: DrawingBackend>(root: &DrawingArea<DB, Shift>, fig: &Figure) -> Resu
             .label_font((FONT_FAMILY, 14))
             .draw()
             .map_err(e)?;
+    }};
+}
+
+fn draw<DB: DrawingBackend>(root: &DrawingArea<DB, Shift>, fig: &Figure) -> Result<(), String> {
+    let e = |x: DrawingAreaErrorKind<DB::ErrorType>| x.to_string();
+    root.fill(&WHITE).map_err(e)?;
+    let body = root.titled(&fig.title, (FONT_FAMILY, 24)).map_err(e)?;
+    let body = match &fig.note {
+        Some(note) => {
+            let h = body.dim_in_pixel().1 as i32;
+            let (main, foot) = body.split_vertically(h - NOTE_HEIGHT as i32);
+            foot.draw_text(note, &TextStyle::from((FONT_FAMILY, 14).into_font()), (12, 6)).map_err(e)?;
+            main
+        }
+        None => body,
+    };
+    let areas = body.split_evenly((fig.panels.len(), 1));
+    let x_all = fig.panels.iter().flat_map(|p| p.traces.iter()).flat_map(|t| t.points.iter().map(|p| p.0));
+    let (x_lo, x_hi) = axis_range(x_all, 0.0);
+    for (i, (area, panel)) in areas.iter().zip(&fig.panels).enumerate() {
+        let last = i + 1 == fig.panels.len();
+        let y_all = panel.traces.iter().flat_map(|t| t.points.iter().filter_map(|p| p.1));
+        let (y_lo, y_hi) = axis_range(y_all, 0.05);
+        let mut builder = ChartBuilder::on(area);
+        builder.margin(10).margin_right(30).x_label_area_size(if last { 50 } else { 30 }).y_label_area_size(90);
+        if fig.x_log {
+            let chart = builder.build_cartesian_2d((x_lo..x_hi).log_scale(), y_lo..y_hi).map_err(e)?;
+            fill_panel!(chart, panel, last, fig, e);
+        } else {
+            let chart = builder.build_cartesian_2d(x_lo..x_hi, y_lo..y_hi).map_err(e)?;
+            fill_panel!(chart, panel, last, fig, e);
+        }
     }
     Ok(())
 }
@@ -873,6 +930,7 @@ mod clip_tests {
                     markers: false,
                 }],
             }],
+            x_log: false,
             note: None,
         };
         clip_vertical(&mut f, 0.5, 2.0);
@@ -917,9 +975,7 @@ mod tests {
             balance: Default::default(),
             t_final: 1.0,
             stats: Default::default(),
-            rhs_evaluations: 0,
-            linear_algebra: "dense",
-            evaluations_per_jacobian: 0,
+            ..Default::default()
         }
     }
 
@@ -933,7 +989,7 @@ mod tests {
     #[test]
     fn png_has_signature_and_size() {
         let r = synthetic();
-        let bytes = traces_image(&r, &[0, 1, 2, 3], Path::new("fig.png")).expect("png");
+        let bytes = traces_image(&r, &[0, 1, 2, 3], Path::new("fig.png"), None).expect("png");
         assert_eq!(&bytes[..8], b"\x89PNG\r\n\x1a\n");
         // IHDR width and height (big endian) at bytes 16..24: three panels stacked
         let w = u32::from_be_bytes([bytes[16], bytes[17], bytes[18], bytes[19]]);
@@ -945,14 +1001,14 @@ mod tests {
     #[test]
     fn svg_names_legend_and_units() {
         let r = synthetic();
-        let bytes = traces_image(&r, &[0, 1, 2, 3], Path::new("fig.SVG")).expect("svg");
+        let bytes = traces_image(&r, &[0, 1, 2, 3], Path::new("fig.SVG"), None).expect("svg");
         let svg = String::from_utf8(bytes).expect("utf8");
         assert!(svg.starts_with("<svg"), "{}", &svg[..40.min(svg.len())]);
         for name in ["head.p", "rod.p", "head.T", "piston.x", "pressure [bar (abs)]", "temperature [K]", "position [mm]", "time [s]"] {
             assert!(svg.contains(name), "SVG lacks {name}");
         }
         // position and velocity on separate axes; dimensionless head.n would be a 5th panel: not drawn but named in the note
-        let with_n = String::from_utf8(traces_image(&r, &[0, 2, 3, 5, 4], Path::new("f.svg")).expect("svg")).expect("utf8");
+        let with_n = String::from_utf8(traces_image(&r, &[0, 2, 3, 5, 4], Path::new("f.svg"), None).expect("svg")).expect("utf8");
         assert!(with_n.contains("velocity [m/s]") && with_n.contains("position [mm]"));
         assert!(with_n.contains("not shown (at most 4 panels): head.n"));
     }
@@ -990,7 +1046,7 @@ mod tests {
     fn bad_extension_is_a_usage_error() {
         let r = synthetic();
         for name in ["fig.jpg", "fig", "fig.png.txt"] {
-            match traces_image(&r, &[0], Path::new(name)) {
+            match traces_image(&r, &[0], Path::new(name), None) {
                 Err(AppError::Usage(m)) => assert!(m.contains(".png") && m.contains(".svg") && m.contains(name), "{m}"),
                 other => panic!("{name}: expected a usage error, got {other:?}"),
             }
@@ -1079,6 +1135,41 @@ mod tests {
         assert!(svg.contains("supply.p = 7 bar"));
         let err = sweep_figure(&table, "flow_control.C", "extend_s", None, None).expect_err("no such column");
         assert!(err.to_string().contains("available: flow_control.C, supply.p, cycle_time_s, error"), "{err}");
+    }
+
+    #[test]
+    fn run_titles_name_the_model_and_what_was_changed() {
+        let t = run_title("meter_out", &[], 0.0, 7.735);
+        assert_eq!(t, "meter_out (as in the netlist), t = 0 … 7.735 s");
+        let sets = vec!["flow_control.C=2.68 L/min/bar".to_string(), " supply.p=7 bar".to_string()];
+        let t = run_title("meter_out", &sets, 0.0, 35.45);
+        assert_eq!(t, "meter_out with flow_control.C=2.68 L/min/bar, supply.p=7 bar, t = 0 … 35.45 s");
+        let many: Vec<String> = (0..20).map(|i| format!("c{i}.p=1 bar")).collect();
+        let t = run_title("m", &many, 0.0, 1.0);
+        assert!(t.chars().count() == 110 && t.ends_with('…'), "{t}");
+        // the title reaches the picture
+        let svg =
+            String::from_utf8(traces_image(&synthetic(), &[0], Path::new("f.svg"), Some("meter_out with supply.p=7 bar")).expect("svg"))
+                .expect("utf8");
+        assert!(svg.contains("meter_out with supply.p=7 bar") && !svg.contains("Simulated traces"));
+    }
+
+    #[test]
+    fn sweeps_spanning_decades_get_a_log_axis_with_readable_ticks() {
+        let c = |l_min_bar: f64| l_min_bar * 1e-3 / 60.0 / 1e5;
+        let rows: String = [1.41, 2.68, 13.2, 210.0].iter().map(|&v| format!("{},2.5\n", c(v))).collect();
+        let (_d, path) = temp_file("decades.csv", &format!("flow_control.C,cycle_time_s\n{rows}"));
+        let fig = sweep_figure(&read_table(&path).expect("read"), "flow_control.C", "cycle_time_s", None, None).expect("figure");
+        assert!(fig.x_log, "1.41 … 210 spans two decades");
+        assert!(fig.x_desc.contains("log"), "{}", fig.x_desc);
+        let svg = String::from_utf8(render(&fig, Path::new("f.svg")).expect("svg")).expect("utf8");
+        let labels: Vec<&str> = svg.lines().map(str::trim).collect();
+        assert!(labels.contains(&"10") && labels.contains(&"100"), "decade ticks are labelled");
+        // one decade or less stays linear; a zero or negative value cannot be on a log axis
+        let (_d, path) = temp_file("narrow.csv", "supply.p,cycle_time_s\n400000,2.4\n700000,2.2\n");
+        assert!(!sweep_figure(&read_table(&path).expect("read"), "supply.p", "cycle_time_s", None, None).expect("figure").x_log);
+        assert!(!spans_decades([0.0, 1.0, 1000.0].into_iter()));
+        assert!(spans_decades([0.5, 50.0].into_iter()) && !spans_decades([0.5, 49.0].into_iter()));
     }
 
     #[test]

@@ -75,7 +75,11 @@ pub fn simulate(o: &SimulateOptions, warn: &mut dyn FnMut(&[graph::Warning])) ->
     let csv_text = o.out.as_ref().map(|_| csv(&r.result, &columns, o.header_units));
     let summary_text = o.summary.as_ref().map(|_| serde_json::to_string_pretty(&summary_of(&r)).unwrap_or_default());
     let plot_bytes = match &o.plot {
-        Some(path) => Some(crate::plot::traces_image(&r.result, &columns, path)?),
+        Some(path) => {
+            let t0 = r.result.times.first().copied().unwrap_or(0.0);
+            let title = crate::plot::run_title(&r.name, &o.sets, t0, r.result.t_final);
+            Some(crate::plot::traces_image(&r.result, &columns, path, Some(&title))?)
+        }
         None => None,
     };
     if let (Some(path), Some(bytes)) = (&o.plot, plot_bytes) {

@@ -42,6 +42,15 @@
 //! 6. [`Block::derivatives`] — state derivatives from the balances that
 //!    `solve` gathered on each node.
 //!
+//! ## Exact derivatives
+//! A block may give the partial derivatives of each phase's outputs with
+//! respect to its own inputs ([`Block::partials`], laid out by [`Shape`]):
+//! `solve` chains them through the wiring (and through the junction
+//! solves, by implicit differentiation) into the exact Jacobian ∂f/∂y of the
+//! whole model. A block that does not give them for a phase is
+//! differentiated alone by central differences (a fallback that `pneumo
+//! simulate --summary` names).
+//!
 //! ## Sign conventions (the only place they are written)
 //! - Pneumatic port: mass flow ṁ [kg/s] and energy flow Ė [W] are positive
 //!   INTO the block. Ė is the total energy carried through the port: enthalpy
@@ -393,6 +402,257 @@ pub enum GasRole {
     Boundary,
 }
 
+/// A phase of the evaluation whose outputs [`Block::partials`] differentiates.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum Phase {
+    /// x, v of each mechanical port ([`Block::kinematics`]).
+    Kinematics,
+    /// p, T of each pneumatic port ([`Block::effort`]).
+    Effort,
+    /// Each signal output ([`Block::signal_outputs`]).
+    Signals,
+    /// ṁ, Ė of each pneumatic port ([`Block::flows`]).
+    Flows,
+    /// Applied force and the three dry-friction levels of each mechanical port ([`Block::forces`]).
+    Forces,
+    /// Each state derivative ([`Block::derivatives`]).
+    Derivatives,
+    /// Wall heat and boundary work ([`Block::exchange`]).
+    Exchange,
+    /// The rates of the block's own quadratures ([`Block::quadrature_rates`],
+    /// differentiated by [`Block::quadrature_partials`]).
+    Quadratures,
+}
+
+impl Phase {
+    /// Every phase, in evaluation order.
+    pub const ALL: [Phase; 8] = [
+        Phase::Kinematics,
+        Phase::Effort,
+        Phase::Signals,
+        Phase::Flows,
+        Phase::Forces,
+        Phase::Derivatives,
+        Phase::Exchange,
+        Phase::Quadratures,
+    ];
+}
+
+/// An input of a block, by kind and index among the ports (or states) of that kind.
+///
+/// Gas at a port enters through its pressure and temperature: a block that
+/// reads the density or enthalpy of a port differentiates them through the
+/// gas model (see [`crate::support::GasSlopes`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum In {
+    State(usize),
+    P(usize),
+    T(usize),
+    X(usize),
+    V(usize),
+    Signal(usize),
+    /// Net mass flow into pneumatic port k ([`Balances::pneumatic`]).
+    Mdot(usize),
+    /// Net energy flow into pneumatic port k.
+    Edot(usize),
+    /// Acceleration of mechanical port k's node ([`Balances::mechanical`]).
+    Accel(usize),
+    /// The derivative of the block's own state i (read by the quadratures only).
+    Rate(usize),
+}
+
+/// An output of a phase (see [`Phase`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Out {
+    X(usize),
+    V(usize),
+    P(usize),
+    T(usize),
+    Signal(usize),
+    Mdot(usize),
+    Edot(usize),
+    Applied(usize),
+    Sliding(usize),
+    Breakaway(usize),
+    Viscous(usize),
+    /// Derivative of state i.
+    Rate(usize),
+    Heat,
+    Work,
+    /// Rate of the block's quadrature k.
+    Quadrature(usize),
+}
+
+/// Numbers of a block's inputs and outputs of each kind: the layout of its [`Partials`].
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct Shape {
+    pub states: usize,
+    pub pneumatic: usize,
+    pub mechanical: usize,
+    pub signals_in: usize,
+    pub signals_out: usize,
+    pub quadratures: usize,
+}
+
+impl Shape {
+    /// The shape of `block` (its ports and states).
+    pub fn of(block: &dyn Block) -> Shape {
+        let ports = block.ports();
+        let count = |k: PortKind| ports.iter().filter(|p| p.kind == k).count();
+        Shape {
+            states: block.states().len(),
+            pneumatic: ports.iter().filter(|p| p.kind.domain() == Domain::Pneumatic).count(),
+            mechanical: ports.iter().filter(|p| p.kind.domain() == Domain::Mechanical).count(),
+            signals_in: count(PortKind::SignalIn),
+            signals_out: count(PortKind::SignalOut),
+            quadratures: block.quadratures().len(),
+        }
+    }
+    /// Number of inputs (columns of a [`Partials`]).
+    pub fn n_inputs(&self) -> usize {
+        2 * self.states + 4 * self.pneumatic + 3 * self.mechanical + self.signals_in
+    }
+    /// Column of an input, or `None` if the block has no such input.
+    pub fn input(&self, i: In) -> Option<usize> {
+        let (ns, np, nm, nsi) = (self.states, self.pneumatic, self.mechanical, self.signals_in);
+        let (col, k, count) = match i {
+            In::State(k) => (k, k, ns),
+            In::P(k) => (ns + 2 * k, k, np),
+            In::T(k) => (ns + 2 * k + 1, k, np),
+            In::X(k) => (ns + 2 * np + 2 * k, k, nm),
+            In::V(k) => (ns + 2 * np + 2 * k + 1, k, nm),
+            In::Signal(k) => (ns + 2 * np + 2 * nm + k, k, nsi),
+            In::Mdot(k) => (ns + 2 * np + 2 * nm + nsi + 2 * k, k, np),
+            In::Edot(k) => (ns + 2 * np + 2 * nm + nsi + 2 * k + 1, k, np),
+            In::Accel(k) => (ns + 4 * np + 2 * nm + nsi + k, k, nm),
+            In::Rate(k) => (ns + 4 * np + 3 * nm + nsi + k, k, ns),
+        };
+        (k < count).then_some(col)
+    }
+    /// The input of a column (inverse of [`Shape::input`]).
+    pub fn input_at(&self, col: usize) -> In {
+        let (ns, np, nm, nsi) = (self.states, self.pneumatic, self.mechanical, self.signals_in);
+        let mut c = col;
+        if c < ns {
+            return In::State(c);
+        }
+        c -= ns;
+        if c < 2 * np {
+            return if c.is_multiple_of(2) { In::P(c / 2) } else { In::T(c / 2) };
+        }
+        c -= 2 * np;
+        if c < 2 * nm {
+            return if c.is_multiple_of(2) { In::X(c / 2) } else { In::V(c / 2) };
+        }
+        c -= 2 * nm;
+        if c < nsi {
+            return In::Signal(c);
+        }
+        c -= nsi;
+        if c < 2 * np {
+            return if c.is_multiple_of(2) { In::Mdot(c / 2) } else { In::Edot(c / 2) };
+        }
+        c -= 2 * np;
+        if c < nm {
+            return In::Accel(c);
+        }
+        In::Rate(c - nm)
+    }
+    /// Number of outputs (rows) of a phase.
+    pub fn outputs(&self, phase: Phase) -> usize {
+        match phase {
+            Phase::Kinematics => 2 * self.mechanical,
+            Phase::Effort | Phase::Flows => 2 * self.pneumatic,
+            Phase::Signals => self.signals_out,
+            Phase::Forces => 4 * self.mechanical,
+            Phase::Derivatives => self.states,
+            Phase::Exchange => 2,
+            Phase::Quadratures => self.quadratures,
+        }
+    }
+    /// Row of an output in a phase, or `None` if the phase has no such output.
+    pub fn output(&self, phase: Phase, o: Out) -> Option<usize> {
+        let row = match (phase, o) {
+            (Phase::Kinematics, Out::X(k)) => 2 * k,
+            (Phase::Kinematics, Out::V(k)) => 2 * k + 1,
+            (Phase::Effort, Out::P(k)) => 2 * k,
+            (Phase::Effort, Out::T(k)) => 2 * k + 1,
+            (Phase::Signals, Out::Signal(k)) => k,
+            (Phase::Flows, Out::Mdot(k)) => 2 * k,
+            (Phase::Flows, Out::Edot(k)) => 2 * k + 1,
+            (Phase::Forces, Out::Applied(k)) => 4 * k,
+            (Phase::Forces, Out::Sliding(k)) => 4 * k + 1,
+            (Phase::Forces, Out::Breakaway(k)) => 4 * k + 2,
+            (Phase::Forces, Out::Viscous(k)) => 4 * k + 3,
+            (Phase::Derivatives, Out::Rate(i)) => i,
+            (Phase::Exchange, Out::Heat) => 0,
+            (Phase::Exchange, Out::Work) => 1,
+            (Phase::Quadratures, Out::Quadrature(k)) => k,
+            _ => return None,
+        };
+        (row < self.outputs(phase)).then_some(row)
+    }
+}
+
+/// Partial derivatives of one phase's outputs with respect to a block's
+/// inputs: a dense matrix with a row per output and a column per input (see
+/// [`Shape`]), zero where an output does not depend on an input.
+#[derive(Debug, Clone, Default)]
+pub struct Partials {
+    shape: Shape,
+    phase: Option<Phase>,
+    rows: usize,
+    cols: usize,
+    data: Vec<f64>,
+}
+
+impl Partials {
+    /// All-zero partials of `phase` for a block of `shape` (reusing the storage).
+    pub fn reset(&mut self, shape: Shape, phase: Phase) {
+        self.shape = shape;
+        self.phase = Some(phase);
+        self.rows = shape.outputs(phase);
+        self.cols = shape.n_inputs();
+        self.data.clear();
+        self.data.resize(self.rows * self.cols, 0.0);
+    }
+    pub fn shape(&self) -> Shape {
+        self.shape
+    }
+    pub fn n_rows(&self) -> usize {
+        self.rows
+    }
+    /// Position of (out, input), if both exist for this block and phase.
+    fn index(&self, out: Out, input: In) -> Option<usize> {
+        let r = self.phase.and_then(|p| self.shape.output(p, out))?;
+        Some(r * self.cols + self.shape.input(input)?)
+    }
+    /// ∂out/∂input := v (ignored if the block or phase has no such output or input).
+    pub fn set(&mut self, out: Out, input: In, v: f64) {
+        if let Some(i) = self.index(out, input) {
+            self.data[i] = v;
+        }
+    }
+    /// ∂out/∂input += v.
+    pub fn add(&mut self, out: Out, input: In, v: f64) {
+        if let Some(i) = self.index(out, input) {
+            self.data[i] += v;
+        }
+    }
+    /// ∂out/∂input.
+    pub fn get(&self, out: Out, input: In) -> f64 {
+        self.index(out, input).map_or(0.0, |i| self.data[i])
+    }
+    /// The partials of output row `r`, one per input column.
+    pub fn row(&self, r: usize) -> &[f64] {
+        &self.data[r * self.cols..(r + 1) * self.cols]
+    }
+    /// Mutable row `r`.
+    pub fn row_mut(&mut self, r: usize) -> &mut [f64] {
+        &mut self.data[r * self.cols..(r + 1) * self.cols]
+    }
+}
+
 /// A copy of a boxed block with its discrete state (a valve's position, a
 /// controller's phase): what lets a whole model be copied, e.g. for an FMU's
 /// `fmi2GetFMUstate`. Every `Block` that is `Clone` has it.
@@ -581,6 +841,23 @@ pub trait Block: BlockClone + std::fmt::Debug + Send + Sync {
     /// Set live parameter `name` (one of [`Block::live_parameters`]) to
     /// `value` in SI, already checked against the parameter's range.
     fn set_live_parameter(&mut self, _name: &str, _value: f64) {}
+    /// Exact partial derivatives of the outputs of `phase` with respect to
+    /// the block's inputs at `ctx` (and `balances`, read by the derivatives
+    /// and the exchange; empty in the other phases), written into `out`,
+    /// which arrives zeroed and shaped for this block and phase. Outputs
+    /// that are piecewise constant (a valve's spool switched by a threshold)
+    /// have zero partials. Returns false if the block does not give them for
+    /// this phase (the default): `solve` then differentiates the block alone
+    /// by central differences.
+    fn partials(&self, _phase: Phase, _ctx: &Ctx, _balances: &Balances, _out: &mut Partials) -> bool {
+        false
+    }
+    /// Exact partials of [`Block::quadrature_rates`] (phase
+    /// [`Phase::Quadratures`]), which also read the state derivatives
+    /// `derivs` ([`In::Rate`]). Returns false by default (differences).
+    fn quadrature_partials(&self, _ctx: &Ctx, _balances: &Balances, _derivs: &[f64], _out: &mut Partials) -> bool {
+        false
+    }
 }
 
 /// Number of ports of one kind.

@@ -178,7 +178,20 @@ impl Chamber {
             if rod >= bore {
                 return Err(crate::BlockError::invalid("rod_diameter", "must be smaller than bore"));
             }
-            std::f64::consts::PI / 4.0 * (bore * bore - rod * rod)
+            let area = std::f64::consts::PI / 4.0 * (bore * bore - rod * rod);
+            // a bore so small (or so close to the rod) that the area underflows
+            // would leave a chamber without a piston, an error far from its cause
+            if !(area.is_normal() && area > 0.0) {
+                let why = format!(
+                    "gives a piston area pi/4 (bore^2 - rod_diameter^2) of {} m2 (bore {} m, rod_diameter {} m); \
+                     the area must be a positive normal number",
+                    units::show::num(area),
+                    units::show::num(bore),
+                    units::show::num(rod)
+                );
+                return Err(crate::BlockError::invalid("bore", &why));
+            }
+            area
         } else {
             if p.was_given("rod_diameter") {
                 return Err(crate::BlockError::invalid("rod_diameter", "needs bore"));
@@ -234,6 +247,44 @@ impl Chamber {
         let work = gas.t_dp_dt(rho, t) * (inflow.mdot / rho - dv);
         let dt = (q_wall + e_excess + work) / (m * cv);
         ChamberRates { dm: inflow.mdot, dt, q_wall, dv, e_excess }
+    }
+
+    /// Partials of the temperature rate Ṫ of [`Chamber::rates`] with respect
+    /// to (m, T, x, v, ṁ, Ė): the energy balance Eq. 13 differentiated with
+    /// ρ = m/V(x), c_v(ρ, T), h(ρ, T) and T(∂p/∂T)_ρ moving with (ρ, T)
+    /// (their slopes from the gas model, [`gas::GasModel::second_derivatives`]).
+    pub fn temperature_rate_partials(&self, gas: &dyn gas::GasModel, m: f64, t: f64, mech: MechState, inflow: PortFlow) -> [f64; 6] {
+        let v = self.volume(mech.x).max(f64::MIN_POSITIVE);
+        let rho = m / v;
+        // ρ moves with m and x (not where the volume is clamped at zero)
+        let drho_dm = 1.0 / v;
+        let drho_dx = if self.volume(mech.x) > 0.0 { -rho * self.sigma * self.area / v } else { 0.0 };
+        let cv = gas.cv(rho, t);
+        let h = gas.enthalpy(rho, t);
+        let tpt = gas.t_dp_dt(rho, t);
+        let [cv_rho, cv_t, tpt_rho, tpt_t] = gas.second_derivatives(rho, t);
+        let (h_rho, h_t) = crate::support::enthalpy_slopes(gas, rho, t);
+        let dv = self.sigma * self.area * mech.v;
+        let wall = if self.tau_thermal.is_finite() { (self.t_wall - t) / self.tau_thermal } else { 0.0 };
+        let dwall_dt = if self.tau_thermal.is_finite() { -1.0 / self.tau_thermal } else { 0.0 };
+        // Ṫ = F/D with F = m c_v wall + (Ė − ṁ h) + τ (ṁ/ρ − V̇), D = m c_v, τ = T p_T
+        let flow = inflow.mdot / rho - dv;
+        let f = m * cv * wall + (inflow.edot - inflow.mdot * h) + tpt * flow;
+        let d = m * cv;
+        let rate = f / d;
+        // ∂F, ∂D along ρ (at fixed m) and along T; then m's own (explicit) share
+        let f_rho = m * cv_rho * wall - inflow.mdot * h_rho + tpt_rho * flow - tpt * inflow.mdot / (rho * rho);
+        let d_rho = m * cv_rho;
+        let f_t = m * (cv_t * wall + cv * dwall_dt) - inflow.mdot * h_t + tpt_t * flow;
+        let d_t = m * cv_t;
+        let by = |df: f64, dd: f64| (df - rate * dd) / d;
+        let dm = by(f_rho * drho_dm + cv * wall, d_rho * drho_dm + cv);
+        let dt = by(f_t, d_t);
+        let dx = by(f_rho * drho_dx, d_rho * drho_dx);
+        let dvel = by(-tpt * self.sigma * self.area, 0.0);
+        let dmdot = by(-h + tpt / rho, 0.0);
+        let dedot = by(1.0, 0.0);
+        [dm, dt, dx, dvel, dmdot, dedot]
     }
 
     /// Instantaneous polytropic index, Eq. 22, from the state and its rates; `None` when ρ̇ ≈ 0.
@@ -366,6 +417,63 @@ impl Block for Chamber {
         out[0] = r.dm;
         out[1] = r.dt;
     }
+    fn partials(&self, phase: Phase, ctx: &Ctx, balances: &Balances, d: &mut Partials) -> bool {
+        let (m, t) = (ctx.states[0], ctx.states[1]);
+        let moving = self.area > 0.0;
+        match phase {
+            Phase::Effort => {
+                // p(ρ, T) with ρ = m/V(x); T is the state
+                let mech = self.position(ctx.mechanical);
+                let v = self.volume(mech.x).max(f64::MIN_POSITIVE);
+                let rho = m / v;
+                let p_rho = ctx.gas.dp_drho(rho, t);
+                d.set(Out::P(0), In::State(0), p_rho / v);
+                d.set(Out::P(0), In::State(1), ctx.gas.t_dp_dt(rho, t) / t);
+                if moving && self.volume(mech.x) > 0.0 {
+                    d.set(Out::P(0), In::X(0), -p_rho * rho * self.sigma * self.area / v);
+                }
+                d.set(Out::T(0), In::State(1), 1.0);
+            }
+            Phase::Signals => {
+                d.set(Out::Signal(0), In::P(0), 1.0);
+                d.set(Out::Signal(1), In::T(0), 1.0);
+            }
+            Phase::Forces if moving => d.set(Out::Applied(0), In::P(0), self.sigma * self.area),
+            Phase::Derivatives => {
+                d.set(Out::Rate(0), In::Mdot(0), 1.0);
+                let r = self.temperature_rate_partials(ctx.gas, m, t, self.position(ctx.mechanical), balances.pneumatic[0]);
+                let inputs = [In::State(0), In::State(1), In::X(0), In::V(0), In::Mdot(0), In::Edot(0)];
+                for (input, value) in inputs.into_iter().zip(r) {
+                    if moving || !matches!(input, In::X(_) | In::V(_)) {
+                        d.set(Out::Rate(1), input, value);
+                    }
+                }
+            }
+            Phase::Exchange => {
+                // Q_w = m c_v (T_w − T)/τ_T; work p·V̇ with V̇ = σ A v
+                if self.tau_thermal.is_finite() {
+                    let mech = self.position(ctx.mechanical);
+                    let v = self.volume(mech.x).max(f64::MIN_POSITIVE);
+                    let rho = m / v;
+                    let cv = ctx.gas.cv(rho, t);
+                    let [cv_rho, cv_t, _, _] = ctx.gas.second_derivatives(rho, t);
+                    let wall = (self.t_wall - t) / self.tau_thermal;
+                    d.set(Out::Heat, In::State(0), (cv + m * cv_rho / v) * wall);
+                    d.set(Out::Heat, In::State(1), m * (cv_t * wall - cv / self.tau_thermal));
+                    if moving && self.volume(mech.x) > 0.0 {
+                        d.set(Out::Heat, In::X(0), m * cv_rho * (-rho * self.sigma * self.area / v) * wall);
+                    }
+                }
+                if moving {
+                    let mech = self.position(ctx.mechanical);
+                    d.set(Out::Work, In::P(0), self.sigma * self.area * mech.v);
+                    d.set(Out::Work, In::V(0), ctx.pneumatic[0].p * self.sigma * self.area);
+                }
+            }
+            _ => {}
+        }
+        true
+    }
     fn stored(&self, ctx: &Ctx) -> Option<Stored> {
         let m = ctx.states[0];
         Some(Stored { mass: m, energy: m * ctx.gas.internal_energy(ctx.pneumatic[0].rho, ctx.states[1]) })
@@ -391,6 +499,47 @@ impl Block for Chamber {
         let rel_dp = (ctx.gas.dp_drho(rho, t) * rel_drho * rho + ctx.gas.t_dp_dt(rho, t) / t * derivs[1]) / p;
         out[0] = rel_drho * rel_drho;
         out[1] = rel_dp * rel_drho;
+    }
+    fn quadrature_partials(&self, ctx: &Ctx, _b: &Balances, derivs: &[f64], d: &mut Partials) -> bool {
+        // q0 = r², q1 = s·r with r = (ṁ − ρ V̇)/m, s = (p_ρ ρ r + (T p_T/T) Ṫ)/p
+        let (m, t) = (ctx.states[0], ctx.states[1]);
+        let mech = self.position(ctx.mechanical);
+        let v = self.volume(mech.x).max(f64::MIN_POSITIVE);
+        let rho = m / v;
+        let dv = self.sigma * self.area * mech.v;
+        let r = (derivs[0] - rho * dv) / m;
+        let p = ctx.pneumatic[0].p;
+        let (p_rho, tpt) = (ctx.gas.dp_drho(rho, t), ctx.gas.t_dp_dt(rho, t));
+        let [_, _, tpt_rho, tpt_t] = ctx.gas.second_derivatives(rho, t);
+        // p_ρ(ρ, T) moves too: its slopes by differences of the gas model's first derivative
+        let (hr, ht) = (1e-7 * rho, 1e-7 * t);
+        let p_rho_rho = (ctx.gas.dp_drho(rho + hr, t) - ctx.gas.dp_drho(rho - hr, t)) / (2.0 * hr);
+        let p_rho_t = (ctx.gas.dp_drho(rho, t + ht) - ctx.gas.dp_drho(rho, t - ht)) / (2.0 * ht);
+        let num = p_rho * rho * r + tpt / t * derivs[1];
+        let s = num / p;
+        // gradients of r and of num over (m, T, x, v, ṁ, Ṫ, p)
+        let drho = [1.0 / v, 0.0, if self.area > 0.0 && self.volume(mech.x) > 0.0 { -rho * self.sigma * self.area / v } else { 0.0 }];
+        let mut dr = [0.0; 7];
+        dr[0] = -dv * drho[0] / m - r / m;
+        dr[2] = -dv * drho[2] / m;
+        dr[3] = -rho * self.sigma * self.area / m;
+        dr[4] = 1.0 / m;
+        let mut dnum = [0.0; 7];
+        for k in 0..7 {
+            dnum[k] = p_rho * rho * dr[k];
+        }
+        for (k, &g) in drho.iter().enumerate() {
+            dnum[k] += (p_rho_rho * rho + p_rho) * r * g + tpt_rho / t * derivs[1] * g;
+        }
+        dnum[1] += p_rho_t * rho * r + (tpt_t / t - tpt / (t * t)) * derivs[1];
+        dnum[5] = tpt / t;
+        let inputs = [In::State(0), In::State(1), In::X(0), In::V(0), In::Rate(0), In::Rate(1), In::P(0)];
+        for k in 0..7 {
+            let ds = if k == 6 { -s / p } else { dnum[k] / p };
+            d.set(Out::Quadrature(0), inputs[k], 2.0 * r * dr[k]);
+            d.set(Out::Quadrature(1), inputs[k], ds * r + s * dr[k]);
+        }
+        true
     }
     /// Mean polytropic index over an interval: the constant n that best
     /// fits ṗ/p = n·ρ̇/ρ over it in least squares,

@@ -53,6 +53,17 @@ impl OneWay {
     pub fn flow(&self, a: &gas::GasState, b: &gas::GasState) -> PortFlow {
         restriction_flow(&self.flow, self.opening(a.p - b.p), a, b, 0.0)
     }
+    /// Add the partials of [`OneWay::flow`] between the block's pneumatic
+    /// ports `pa` and `pb` to `d` (the opening moves with p_a − p_b inside
+    /// the opening range).
+    pub fn add_partials(&self, d: &mut Partials, pa: usize, pb: usize, ctx: &Ctx) {
+        let (a, b) = (&ctx.pneumatic[pa], &ctx.pneumatic[pb]);
+        let x = (a.p - b.p - self.cracking_pressure) / self.opening_range;
+        let r = crate::conductance::restriction_partials(&self.flow, self.opening(a.p - b.p), a, b, 0.0, ctx.gas);
+        let k = 1.0 / self.opening_range;
+        let moves: &[(In, f64)] = if x > 0.0 && x < 1.0 { &[(In::P(pa), k), (In::P(pb), -k)] } else { &[] };
+        crate::conductance::add_path(d, pa, pb, &r, moves);
+    }
     /// [`OneWay::flow`] with the derivatives of its mass flow by p_a and p_b
     /// (the opening moves with p_a − p_b inside the opening range).
     pub fn flow_slopes(&self, a: &gas::GasState, b: &gas::GasState) -> (PortFlow, f64, f64) {
@@ -106,6 +117,12 @@ impl Block for CheckValve {
     fn port_flow(&self, ctx: &Ctx, port: usize) -> Option<(PortFlow, f64)> {
         let (f, da, db) = self.valve.flow_slopes(&ctx.pneumatic[0], &ctx.pneumatic[1]);
         Some(crate::conductance::at_port(port, f, da, db))
+    }
+    fn partials(&self, phase: Phase, ctx: &Ctx, _b: &Balances, d: &mut Partials) -> bool {
+        if phase == Phase::Flows {
+            self.valve.add_partials(d, 0, 1, ctx);
+        }
+        true
     }
     fn outputs(&self) -> &[OutputSpec] {
         OUTPUTS

@@ -72,6 +72,70 @@ pub fn at_port(port: usize, f: PortFlow, d_pa: f64, d_pb: f64) -> (PortFlow, f64
     }
 }
 
+/// Partial derivatives of [`restriction_flow`] (the flow into port a) with
+/// respect to (p_a, T_a, p_b, T_b) and to the opening.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct RestrictionPartials {
+    pub mdot: [f64; 4],
+    pub edot: [f64; 4],
+    /// ∂(ṁ, Ė)/∂opening (the flow of the fully open path).
+    pub opening: PortFlow,
+}
+
+/// The partials of [`restriction_flow`]: ṁ = opening·ṁ_ISO(p_a, T_a, p_b, T_b)
+/// (gradient from [`FlowCharacteristic::mass_flow_gradient`]) and
+/// Ė = ṁ·h_up + G·(T_a − T_b), where h_up(p, T) of the upstream side moves
+/// with its state ([`crate::support::GasSlopes`]). At zero flow the mean of
+/// both sides' enthalpies is taken (Ė has a kink there when they differ).
+pub fn restriction_partials(
+    fc: &FlowCharacteristic,
+    opening: f64,
+    a: &GasState,
+    b: &GasState,
+    g_heat: f64,
+    gas: &dyn gas::GasModel,
+) -> RestrictionPartials {
+    let mut d = RestrictionPartials { edot: [0.0, g_heat, 0.0, -g_heat], ..Default::default() };
+    let full = fc.mass_flow(a.p, a.t, b.p, b.t);
+    let grad = fc.mass_flow_gradient(a.p, a.t, b.p, b.t);
+    let (sa, sb) = (crate::support::GasSlopes::at(gas, a), crate::support::GasSlopes::at(gas, b));
+    let (h_up, dh) = if full > 0.0 {
+        (a.h, [sa.dh_dp, sa.dh_dt, 0.0, 0.0])
+    } else if full < 0.0 {
+        (b.h, [0.0, 0.0, sb.dh_dp, sb.dh_dt])
+    } else {
+        (0.5 * (a.h + b.h), [0.5 * sa.dh_dp, 0.5 * sa.dh_dt, 0.5 * sb.dh_dp, 0.5 * sb.dh_dt])
+    };
+    d.opening = PortFlow { mdot: full, edot: full * h_up };
+    if opening <= 0.0 {
+        return d;
+    }
+    let mdot = opening * full;
+    for i in 0..4 {
+        d.mdot[i] = opening * grad[i];
+        d.edot[i] += h_up * d.mdot[i] + mdot * dh[i];
+    }
+    d
+}
+
+/// Add the partials of a restriction carrying flow from the block's
+/// pneumatic port `pa` to port `pb` (flow phase): into `pa` with its sign,
+/// out of `pb`; `opening` lists how the opening moves with the block's
+/// inputs (a spool state, a pressure difference).
+pub fn add_path(d: &mut Partials, pa: usize, pb: usize, r: &RestrictionPartials, opening: &[(In, f64)]) {
+    let inputs = [In::P(pa), In::T(pa), In::P(pb), In::T(pb)];
+    for (port, sign) in [(pa, 1.0), (pb, -1.0)] {
+        for (i, &input) in inputs.iter().enumerate() {
+            d.add(Out::Mdot(port), input, sign * r.mdot[i]);
+            d.add(Out::Edot(port), input, sign * r.edot[i]);
+        }
+        for &(input, slope) in opening {
+            d.add(Out::Mdot(port), input, sign * r.opening.mdot * slope);
+            d.add(Out::Edot(port), input, sign * r.opening.edot * slope);
+        }
+    }
+}
+
 pub fn restriction_flow(fc: &FlowCharacteristic, opening: f64, a: &GasState, b: &GasState, g_heat: f64) -> PortFlow {
     if opening <= 0.0 {
         return PortFlow { mdot: 0.0, edot: g_heat * (a.t - b.t) };
@@ -111,6 +175,13 @@ impl Block for Conductance {
     fn port_flow(&self, ctx: &Ctx, port: usize) -> Option<(PortFlow, f64)> {
         let (f, da, db) = restriction_flow_slopes(&self.flow, 1.0, &ctx.pneumatic[0], &ctx.pneumatic[1], self.heat_conductance);
         Some(at_port(port, f, da, db))
+    }
+    fn partials(&self, phase: Phase, ctx: &Ctx, _b: &Balances, d: &mut Partials) -> bool {
+        if phase == Phase::Flows {
+            let r = restriction_partials(&self.flow, 1.0, &ctx.pneumatic[0], &ctx.pneumatic[1], self.heat_conductance, ctx.gas);
+            add_path(d, 0, 1, &r, &[]);
+        }
+        true
     }
     fn outputs(&self) -> &[OutputSpec] {
         OUTPUTS

@@ -50,7 +50,7 @@
 
 use crate::block::*;
 use crate::check_valve::OneWay;
-use crate::conductance::restriction_flow;
+use crate::conductance::{add_path, restriction_flow, restriction_partials};
 use crate::iso6358::FlowCharacteristic;
 use crate::params::{ParamSpec, Params, Range};
 use units::dim;
@@ -149,6 +149,20 @@ impl Block for Cushion {
         let f = self.flow(ctx);
         out[0] = f;
         out[1] = -f;
+    }
+    fn partials(&self, phase: Phase, ctx: &Ctx, _b: &Balances, d: &mut Partials) -> bool {
+        if phase == Phase::Flows {
+            let (ch, line) = (&ctx.pneumatic[0], &ctx.pneumatic[1]);
+            let x = ctx.signals[0];
+            let u = (self.towards * (self.end - x) - (self.length - self.seal)) / self.seal;
+            let slope = if u > 0.0 && u < 1.0 { -self.towards / self.seal } else { 0.0 };
+            let main = restriction_partials(&self.main, self.main_opening(x), ch, line, 0.0, ctx.gas);
+            add_path(d, 0, 1, &main, &[(In::Signal(0), slope)]);
+            let needle = restriction_partials(&self.needle, 1.0, ch, line, 0.0, ctx.gas);
+            add_path(d, 0, 1, &needle, &[]);
+            self.check.add_partials(d, 1, 0, ctx);
+        }
+        true
     }
     fn outputs(&self) -> &[OutputSpec] {
         OUTPUTS

@@ -122,6 +122,11 @@ impl Block for Cycler {
     fn gas_role(&self) -> GasRole {
         GasRole::None
     }
+    /// Every output is piecewise constant in the continuous states (it
+    /// changes only at events): all partials are zero.
+    fn partials(&self, _phase: crate::block::Phase, _ctx: &Ctx, _b: &Balances, _d: &mut Partials) -> bool {
+        true
+    }
     fn signal_outputs(&self, _ctx: &Ctx, out: &mut [f64]) {
         out[0] = self.command();
     }

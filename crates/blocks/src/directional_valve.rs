@@ -222,6 +222,28 @@ impl Block for DirectionalValve {
         }
         Some((sum, slope))
     }
+    fn partials(&self, phase: Phase, ctx: &Ctx, _b: &Balances, d: &mut Partials) -> bool {
+        match phase {
+            Phase::Flows => {
+                let s = self.spool(ctx);
+                // the lagged spool moves the openings; a switched one is piecewise constant
+                let ds = if self.spool_tau > 0.0 && (0.0..=1.0).contains(&ctx.states[0]) { 1.0 } else { 0.0 };
+                for path in &self.paths {
+                    let (opening, slope) = if path.when_actuated { (s, ds) } else { (1.0 - s, -ds) };
+                    if opening <= 0.0 && slope == 0.0 {
+                        continue; // a shut path
+                    }
+                    let (a, b) = (&ctx.pneumatic[path.from], &ctx.pneumatic[path.to]);
+                    let r = crate::conductance::restriction_partials(&path.flow, opening, a, b, 0.0, ctx.gas);
+                    let moves: &[(In, f64)] = if slope != 0.0 { &[(In::State(0), slope)] } else { &[] };
+                    crate::conductance::add_path(d, path.from, path.to, &r, moves);
+                }
+            }
+            Phase::Derivatives if self.spool_tau > 0.0 => d.set(Out::Rate(0), In::State(0), -1.0 / self.spool_tau),
+            _ => {}
+        }
+        true
+    }
     fn derivatives(&self, ctx: &Ctx, _b: &Balances, out: &mut [f64]) {
         if self.spool_tau > 0.0 {
             let target = if ctx.signals[0] >= 0.5 { 1.0 } else { 0.0 };

@@ -79,6 +79,26 @@ impl Block for FlowSensor {
         out[0] = f;
         out[1] = -f;
     }
+    fn partials(&self, phase: Phase, ctx: &Ctx, _b: &Balances, d: &mut Partials) -> bool {
+        let (a, b) = (&ctx.pneumatic[0], &ctx.pneumatic[1]);
+        let r = crate::conductance::restriction_partials(&self.flow, 1.0, a, b, 0.0, ctx.gas);
+        if phase == Phase::Flows {
+            crate::conductance::add_path(d, 0, 1, &r, &[]);
+        }
+        let du = [(In::P(0), r.mdot[0]), (In::T(0), r.mdot[1]), (In::P(1), r.mdot[2]), (In::T(1), r.mdot[3])];
+        self.lag.partials(phase, 0, &du, d);
+        let scaled = du.map(|(i, v)| (i, v / ANR_DENSITY));
+        if phase == Phase::Signals {
+            if self.lag.tau > 0.0 {
+                d.set(Out::Signal(1), In::State(0), 1.0 / ANR_DENSITY);
+            } else {
+                for (i, v) in scaled {
+                    d.add(Out::Signal(1), i, v);
+                }
+            }
+        }
+        true
+    }
     fn signal_outputs(&self, ctx: &Ctx, out: &mut [f64]) {
         let y = self.lag.output(self.mdot(ctx), ctx.states);
         out[0] = y;

@@ -105,6 +105,40 @@ impl Friction {
         };
         dry + self.viscous(p1, p2) * v.abs()
     }
+    /// Partials of (sliding, breakaway, viscous) with respect to (v, p1, p2).
+    pub fn level_partials(&self, v: f64, p1: f64, p2: f64) -> [[f64; 3]; 3] {
+        let fc_on = self.k0 + self.k1 * (p1 + p2) > 0.0;
+        let dfc = if fc_on { [0.0, self.k1, self.k1] } else { [0.0; 3] };
+        let c_on = self.k2 + self.k3 * (p1 - self.k4 * p2) > 0.0;
+        let dc = if c_on { [0.0, self.k3, -self.k3 * self.k4] } else { [0.0; 3] };
+        let dfs = dfc.map(|x| self.breakaway_ratio * x);
+        let c = self.viscous(p1, p2);
+        let sign = if v > 0.0 {
+            1.0
+        } else if v < 0.0 {
+            -1.0
+        } else {
+            0.0
+        };
+        let mut sliding = [0.0; 3];
+        if self.stribeck_velocity > 0.0 {
+            // fs + (fs − fc)(e^(−u²) − 1), u = v/v_s
+            let u = v / self.stribeck_velocity;
+            let e = (-u * u).exp_m1();
+            let gap = self.breakaway(p1, p2) - self.coulomb(p1, p2);
+            for i in 0..3 {
+                sliding[i] = dfs[i] + (dfs[i] - dfc[i]) * e;
+            }
+            sliding[0] += gap * (e + 1.0) * (-2.0 * u / self.stribeck_velocity);
+        } else {
+            sliding = dfc;
+        }
+        for i in 0..3 {
+            sliding[i] += dc[i] * v.abs();
+        }
+        sliding[0] += c * sign;
+        [sliding, dfs, dc]
+    }
     /// Signed friction force on a node sliding at velocity v ≠ 0 (opposes motion) [N].
     pub fn sliding_force(&self, v: f64, p1: f64, p2: f64) -> f64 {
         -v.signum() * self.sliding(v, p1, p2)
@@ -132,6 +166,17 @@ impl Block for Friction {
                 viscous: self.viscous(p1, p2),
             }),
         };
+    }
+    fn partials(&self, phase: Phase, ctx: &Ctx, _b: &Balances, d: &mut Partials) -> bool {
+        if phase == Phase::Forces {
+            let [sliding, breakaway, viscous] = self.level_partials(ctx.mechanical[0].v, ctx.signals[0], ctx.signals[1]);
+            for (out, row) in [(Out::Sliding(0), sliding), (Out::Breakaway(0), breakaway), (Out::Viscous(0), viscous)] {
+                d.set(out, In::V(0), row[0]);
+                d.set(out, In::Signal(0), row[1]);
+                d.set(out, In::Signal(1), row[2]);
+            }
+        }
+        true
     }
     fn outputs(&self) -> &[OutputSpec] {
         OUTPUTS

@@ -339,6 +339,24 @@ impl FlowCharacteristic {
         }
     }
 
+    /// Gradient of [`mass_flow`](Self::mass_flow) with respect to
+    /// `(p_a, T_a, p_b, T_b)`: the pressure slopes of
+    /// [`mass_flow_derivatives`](Self::mass_flow_derivatives), and the
+    /// upstream temperature's through K_T ∝ T_up^(−½) (Eq. 35):
+    /// ∂ṁ/∂T_up = −ṁ/(2 T_up).
+    pub fn mass_flow_gradient(&self, p_a: f64, t_a: f64, p_b: f64, t_b: f64) -> [f64; 4] {
+        let (da, db) = self.mass_flow_derivatives(p_a, t_a, p_b, t_b);
+        let m = self.mass_flow(p_a, t_a, p_b, t_b);
+        let (dta, dtb) = if m > 0.0 {
+            (-0.5 * m / t_a, 0.0)
+        } else if m < 0.0 {
+            (0.0, -0.5 * m / t_b)
+        } else {
+            (0.0, 0.0)
+        };
+        [da, dta, db, dtb]
+    }
+
     /// Order of magnitude of the process time of a volume `volume` (m³)
     /// charged or discharged through this restriction, paper Eq. 19:
     /// `O(τ) = V / (γ C p_N)` (s), with `gamma` the heat capacity ratio and

@@ -85,6 +85,11 @@ impl Block for LimitSwitch {
     fn forces(&self, _ctx: &Ctx, out: &mut [PortForce]) {
         out[0] = PortForce::default();
     }
+    /// Every output is piecewise constant in the continuous states (it
+    /// changes only at events): all partials are zero.
+    fn partials(&self, _phase: Phase, _ctx: &Ctx, _b: &Balances, _d: &mut Partials) -> bool {
+        true
+    }
     fn signal_outputs(&self, _ctx: &Ctx, out: &mut [f64]) {
         out[0] = if self.on { 1.0 } else { 0.0 };
     }

@@ -132,6 +132,12 @@ impl Block for Load {
     fn forces(&self, ctx: &Ctx, out: &mut [PortForce]) {
         out[0] = PortForce { applied: self.force(ctx.mechanical[0].x, ctx.t), friction: None };
     }
+    fn partials(&self, phase: Phase, ctx: &Ctx, _b: &Balances, d: &mut Partials) -> bool {
+        if let (Phase::Forces, Profile::Position(xs, fs)) = (phase, &self.profile) {
+            d.set(Out::Applied(0), In::X(0), crate::support::interpolate_slope(xs, fs, ctx.mechanical[0].x));
+        }
+        true
+    }
     fn carried_mass(&self) -> f64 {
         self.mass
     }

@@ -336,7 +336,11 @@ pub fn parse_value(spec: &ParamSpec, value: &RawValue) -> Result<f64, ParamError
             if spec.range == Range::PositiveOrInfinite && matches!(s.trim(), "inf" | "infinity" | "∞") {
                 f64::INFINITY
             } else {
-                parse_quantity(s, dim).map_err(|source| ParamError::Unit { name: spec.name.into(), value: shown.clone(), source })?
+                parse_quantity(s, dim).map_err(|source| match source {
+                    // the message quotes the input itself, briefly: not twice
+                    units::UnitError::NonFinite { .. } => ParamError::Invalid { name: spec.name.into(), reason: source.to_string() },
+                    _ => ParamError::Unit { name: spec.name.into(), value: shown.clone(), source },
+                })?
             }
         }
         (ParamKind::Choice(options), RawValue::Text(s)) => match options.iter().position(|o| o.eq_ignore_ascii_case(s.trim())) {

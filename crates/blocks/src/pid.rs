@@ -126,6 +126,34 @@ impl Block for Pid {
         out[0] = if self.ki > 0.0 { self.ki * (r - y) + (u - v) / self.tt } else { 0.0 };
         out[1] = (y - ctx.states[1]) / self.tf;
     }
+    fn partials(&self, phase: Phase, ctx: &Ctx, _b: &Balances, d: &mut Partials) -> bool {
+        // v = kp e + i + d_term with e = r − y, d_term = −kd (y − y_f)/t_f; u = clamp(v)
+        let (r, y) = (ctx.signals[0], ctx.signals[1]);
+        let (v, _) = self.output(r, y, ctx.states);
+        let kd = if self.kd > 0.0 { self.kd / self.tf } else { 0.0 };
+        let dv = [(In::Signal(0), self.kp), (In::Signal(1), -self.kp - kd), (In::State(0), 1.0), (In::State(1), kd)];
+        let passes = if v > self.u_min && v < self.u_max { 1.0 } else { 0.0 };
+        match phase {
+            Phase::Signals => {
+                for (i, x) in dv {
+                    d.add(Out::Signal(0), i, passes * x);
+                }
+            }
+            Phase::Derivatives => {
+                if self.ki > 0.0 {
+                    d.add(Out::Rate(0), In::Signal(0), self.ki);
+                    d.add(Out::Rate(0), In::Signal(1), -self.ki);
+                    for (i, x) in dv {
+                        d.add(Out::Rate(0), i, (passes - 1.0) * x / self.tt);
+                    }
+                }
+                d.set(Out::Rate(1), In::Signal(1), 1.0 / self.tf);
+                d.set(Out::Rate(1), In::State(1), -1.0 / self.tf);
+            }
+            _ => {}
+        }
+        true
+    }
     fn outputs(&self) -> &[OutputSpec] {
         OUTPUTS
     }

@@ -159,6 +159,24 @@ impl Block for Piston {
     fn forces(&self, _ctx: &Ctx, out: &mut [PortForce]) {
         out[0] = PortForce { applied: self.external_force - self.p_atm * self.rod_area, friction: None };
     }
+    fn partials(&self, phase: Phase, _ctx: &Ctx, _b: &Balances, d: &mut Partials) -> bool {
+        match phase {
+            Phase::Kinematics => {
+                d.set(Out::X(0), In::State(0), 1.0);
+                d.set(Out::V(0), In::State(1), 1.0);
+            }
+            Phase::Signals => {
+                d.set(Out::Signal(0), In::State(0), 1.0);
+                d.set(Out::Signal(1), In::State(1), 1.0);
+            }
+            Phase::Derivatives => {
+                d.set(Out::Rate(0), In::State(1), 1.0);
+                d.set(Out::Rate(1), In::Accel(0), 1.0);
+            }
+            _ => {} // the applied force is constant
+        }
+        true
+    }
     fn inertia(&self) -> f64 {
         self.mass
     }

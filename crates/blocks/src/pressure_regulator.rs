@@ -134,6 +134,48 @@ impl Regulation {
             out[2] += -r;
         }
     }
+    /// Partials of the flows or the lag derivatives (by `phase`) for a set
+    /// pressure that moves with the block's inputs as `dp_set` lists.
+    pub fn partials(&self, phase: Phase, p_set: f64, dp_set: &[(In, f64)], ctx: &Ctx, d: &mut Partials) {
+        let p_a = ctx.pneumatic[1].p;
+        // targets: x = ramp(p_set − p_a), y = ramp(p_a − p_set − offset)
+        let sx = crate::support::ramp_slope(p_set - p_a, 0.0, self.droop);
+        let sy = if self.relief.is_some() { crate::support::ramp_slope(p_a - p_set - self.relief_offset, 0.0, self.droop) } else { 0.0 };
+        let target = |slope: f64, sign: f64| -> Vec<(In, f64)> {
+            let mut v: Vec<(In, f64)> = dp_set.iter().map(|&(i, x)| (i, sign * slope * x)).collect();
+            v.push((In::P(1), -sign * slope));
+            v
+        };
+        let (tx, ty) = (target(sx, 1.0), target(sy, -1.0));
+        let lagged = self.tau > 0.0 && ctx.states.len() >= 2;
+        match phase {
+            Phase::Flows => {
+                let (x, y) = self.openings(p_set, p_a, ctx.states);
+                let inside = |v: f64| (0.0..=1.0).contains(&v);
+                let (dx, dy) = if lagged {
+                    let own = |k: usize| if inside(ctx.states[k]) { vec![(In::State(k), 1.0)] } else { Vec::new() };
+                    (own(0), own(1))
+                } else {
+                    (tx, ty)
+                };
+                let r = crate::conductance::restriction_partials(&self.supply, x, &ctx.pneumatic[0], &ctx.pneumatic[1], 0.0, ctx.gas);
+                crate::conductance::add_path(d, 0, 1, &r, &dx);
+                if let (Some(relief), Some(e)) = (&self.relief, ctx.pneumatic.get(2)) {
+                    let r = crate::conductance::restriction_partials(relief, y, &ctx.pneumatic[1], e, 0.0, ctx.gas);
+                    crate::conductance::add_path(d, 1, 2, &r, &dy);
+                }
+            }
+            Phase::Derivatives if lagged => {
+                for (k, t) in [(0, tx), (1, ty)] {
+                    d.set(Out::Rate(k), In::State(k), -1.0 / self.tau);
+                    for (i, v) in t {
+                        d.add(Out::Rate(k), i, v / self.tau);
+                    }
+                }
+            }
+            _ => {}
+        }
+    }
     /// Lag derivatives of the two openings.
     pub fn derivatives(&self, p_set: f64, p_a: f64, states: &[f64], out: &mut [f64]) {
         if self.tau > 0.0 && states.len() >= 2 && out.len() >= 2 {
@@ -207,6 +249,10 @@ impl Block for PressureRegulator {
     }
     fn flows(&self, ctx: &Ctx, out: &mut [PortFlow]) {
         self.regulation.flows(self.p_set, ctx, ctx.states, out);
+    }
+    fn partials(&self, phase: Phase, ctx: &Ctx, _b: &Balances, d: &mut Partials) -> bool {
+        self.regulation.partials(phase, self.p_set, &[], ctx, d);
+        true
     }
     fn derivatives(&self, ctx: &Ctx, _b: &Balances, out: &mut [f64]) {
         self.regulation.derivatives(self.p_set, ctx.pneumatic[1].p, ctx.states, out);

@@ -73,6 +73,11 @@ impl Block for PressureSource {
     fn effort(&self, ctx: &Ctx, out: &mut [GasState]) {
         out[0] = ctx.gas.state_pt(self.p, self.t);
     }
+    /// Every output is piecewise constant in the continuous states (it
+    /// changes only at events): all partials are zero.
+    fn partials(&self, _phase: Phase, _ctx: &Ctx, _b: &Balances, _d: &mut Partials) -> bool {
+        true
+    }
     fn facts(&self) -> Vec<(usize, Fact)> {
         vec![(0, if self.name == "atmosphere" { Fact::AmbientPressure(self.p) } else { Fact::SupplyPressure(self.p) })]
     }
@@ -98,6 +103,10 @@ impl Block for PressureSource {
     fn quadrature_rates(&self, _ctx: &Ctx, balances: &Balances, _derivs: &[f64], out: &mut [f64]) {
         // the net flow the circuit draws from the node is what the source delivers
         out[0] = -balances.pneumatic[0].mdot;
+    }
+    fn quadrature_partials(&self, _ctx: &Ctx, _b: &Balances, _derivs: &[f64], d: &mut Partials) -> bool {
+        d.set(Out::Quadrature(0), In::Mdot(0), -1.0);
+        true
     }
     fn quadrature_statistics(&self, increments: &[f64]) -> Vec<(&'static str, Option<f64>)> {
         free_air(increments)

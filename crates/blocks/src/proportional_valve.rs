@@ -125,6 +125,33 @@ impl Block for ProportionalValve {
         }
         Some((sum, slope))
     }
+    fn partials(&self, phase: Phase, ctx: &Ctx, _b: &Balances, d: &mut Partials) -> bool {
+        match phase {
+            Phase::Flows => {
+                let x = self.spool.position(ctx.states);
+                let s = x.clamp(-1.0, 1.0);
+                let ds = if (-1.0..=1.0).contains(&x) { 1.0 } else { 0.0 };
+                for (from, to, side) in PATHS {
+                    let o = (side * s).max(0.0);
+                    let d_o = if side * s > 0.0 { side * ds } else { 0.0 };
+                    let (a, b) = (&ctx.pneumatic[from], &ctx.pneumatic[to]);
+                    let r = crate::conductance::restriction_partials(&self.flow, o, a, b, 0.0, ctx.gas);
+                    crate::conductance::add_path(d, from, to, &r, &[(In::State(0), d_o)]);
+                    if let Some(leak) = &self.leak {
+                        let r = crate::conductance::restriction_partials(leak, 1.0 - o, a, b, 0.0, ctx.gas);
+                        crate::conductance::add_path(d, from, to, &r, &[(In::State(0), -d_o)]);
+                    }
+                }
+            }
+            Phase::Derivatives => {
+                let u = ctx.signals[0];
+                let du = if (-1.0..=1.0).contains(&u) { 1.0 } else { 0.0 };
+                self.spool.partials(&[(In::Signal(0), du)], d);
+            }
+            _ => {}
+        }
+        true
+    }
     fn derivatives(&self, ctx: &Ctx, _b: &Balances, out: &mut [f64]) {
         self.spool.derivatives(Self::command(ctx), ctx.states, out);
     }

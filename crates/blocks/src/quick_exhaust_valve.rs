@@ -97,6 +97,18 @@ impl Block for QuickExhaust {
         out[1] += ae;
         out[2] = -ae;
     }
+    fn partials(&self, phase: Phase, ctx: &Ctx, _b: &Balances, d: &mut Partials) -> bool {
+        if phase == Phase::Flows {
+            let (p, a, e) = (&ctx.pneumatic[0], &ctx.pneumatic[1], &ctx.pneumatic[2]);
+            let dp = p.p - a.p;
+            let (s_in, s_ex) = (crate::support::ramp_slope(dp, self.cracking, self.range), crate::support::ramp_slope(-dp, self.cracking, self.range));
+            let inflow = crate::conductance::restriction_partials(&self.inflow, ramp(dp, self.cracking, self.range), p, a, 0.0, ctx.gas);
+            crate::conductance::add_path(d, 0, 1, &inflow, &[(In::P(0), s_in), (In::P(1), -s_in)]);
+            let exhaust = crate::conductance::restriction_partials(&self.exhaust, ramp(-dp, self.cracking, self.range), a, e, 0.0, ctx.gas);
+            crate::conductance::add_path(d, 1, 2, &exhaust, &[(In::P(0), -s_ex), (In::P(1), s_ex)]);
+        }
+        true
+    }
     fn outputs(&self) -> &[OutputSpec] {
         OUTPUTS
     }

@@ -65,6 +65,11 @@ impl Block for Schedule {
     fn gas_role(&self) -> GasRole {
         GasRole::None
     }
+    /// Every output is piecewise constant in the continuous states (it
+    /// changes only at events): all partials are zero.
+    fn partials(&self, _phase: Phase, _ctx: &Ctx, _b: &Balances, _d: &mut Partials) -> bool {
+        true
+    }
     fn signal_outputs(&self, ctx: &Ctx, out: &mut [f64]) {
         out[0] = self.value(ctx.t);
     }

@@ -601,6 +601,11 @@ impl Block for Sequencer {
     fn gas_role(&self) -> GasRole {
         GasRole::None
     }
+    /// Every output is piecewise constant in the continuous states (it
+    /// changes only at events): all partials are zero.
+    fn partials(&self, _phase: Phase, _ctx: &Ctx, _b: &Balances, _d: &mut Partials) -> bool {
+        true
+    }
     fn signal_outputs(&self, _ctx: &Ctx, out: &mut [f64]) {
         self.output_values(out);
     }

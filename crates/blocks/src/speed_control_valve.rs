@@ -105,6 +105,15 @@ impl Block for SpeedControlValve {
         db += dcb;
         Some(crate::conductance::at_port(port, f, da, db))
     }
+    fn partials(&self, phase: Phase, ctx: &Ctx, _b: &Balances, d: &mut Partials) -> bool {
+        if phase == Phase::Flows {
+            let (a, b) = (&ctx.pneumatic[0], &ctx.pneumatic[1]);
+            let r = crate::conductance::restriction_partials(&self.throttle, 1.0, a, b, 0.0, ctx.gas);
+            crate::conductance::add_path(d, 0, 1, &r, &[]);
+            self.check.add_partials(d, 0, 1, ctx);
+        }
+        true
+    }
     fn outputs(&self) -> &[OutputSpec] {
         OUTPUTS
     }

@@ -53,6 +53,12 @@ impl Block for Spring {
     fn forces(&self, ctx: &Ctx, out: &mut [PortForce]) {
         out[0] = PortForce { applied: self.force(ctx.mechanical[0].x), friction: None };
     }
+    fn partials(&self, phase: Phase, _ctx: &Ctx, _b: &Balances, d: &mut Partials) -> bool {
+        if phase == Phase::Forces {
+            d.set(Out::Applied(0), In::X(0), self.sigma * self.stiffness);
+        }
+        true
+    }
     fn outputs(&self) -> &[OutputSpec] {
         OUTPUTS
     }

@@ -1,9 +1,41 @@
 //! Small helpers shared by several blocks (not a block): opening laws,
 //! on/off thresholds with hysteresis, table interpolation, names of ports
-//! made from parameters.
+//! made from parameters, and how density and enthalpy of a gas state move
+//! with its pressure and temperature (for exact partial derivatives).
 
 use std::collections::BTreeSet;
 use std::sync::{Mutex, OnceLock};
+
+/// How the density and enthalpy of a gas state (p, T) move with p and T,
+/// from the gas model's first derivatives in (ρ, T) (no differences):
+/// ∂ρ/∂p = 1/p_ρ, ∂ρ/∂T = −p_T/p_ρ, and with h_ρ = p_ρ/ρ − T p_T/ρ²,
+/// h_T = c_v + p_T/ρ: ∂h/∂p = h_ρ ∂ρ/∂p, ∂h/∂T = h_T + h_ρ ∂ρ/∂T (= c_p).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct GasSlopes {
+    pub drho_dp: f64,
+    pub drho_dt: f64,
+    pub dh_dp: f64,
+    pub dh_dt: f64,
+}
+
+impl GasSlopes {
+    pub fn at(gas: &dyn gas::GasModel, s: &gas::GasState) -> GasSlopes {
+        let (rho, t) = (s.rho, s.t);
+        let p_rho = gas.dp_drho(rho, t);
+        let p_t = gas.t_dp_dt(rho, t) / t;
+        let (h_rho, h_t) = enthalpy_slopes(gas, rho, t);
+        let drho_dp = 1.0 / p_rho;
+        let drho_dt = -p_t / p_rho;
+        GasSlopes { drho_dp, drho_dt, dh_dp: h_rho * drho_dp, dh_dt: h_t + h_rho * drho_dt }
+    }
+}
+
+/// (∂h/∂ρ at constant T, ∂h/∂T at constant ρ) of a gas model at (ρ, T).
+pub fn enthalpy_slopes(gas: &dyn gas::GasModel, rho: f64, t: f64) -> (f64, f64) {
+    let p_rho = gas.dp_drho(rho, t);
+    let p_t = gas.t_dp_dt(rho, t) / t;
+    (p_rho / rho - t * p_t / (rho * rho), gas.cv(rho, t) + p_t / rho)
+}
 
 /// Linear opening law: 0 below `start`, 1 above `start + band`, linear in
 /// between (`band` > 0). Continuous, so a valve whose opening follows a
@@ -13,6 +45,16 @@ pub fn ramp(x: f64, start: f64, band: f64) -> f64 {
         ((x - start) / band).clamp(0.0, 1.0)
     } else if x > start {
         1.0
+    } else {
+        0.0
+    }
+}
+
+/// Slope d/dx of [`ramp`]: 1/band inside the band, 0 outside (and for a step).
+pub fn ramp_slope(x: f64, start: f64, band: f64) -> f64 {
+    let u = (x - start) / band;
+    if band > 0.0 && u > 0.0 && u < 1.0 {
+        1.0 / band
     } else {
         0.0
     }
@@ -44,6 +86,15 @@ pub fn switch_state(on: bool, u: f64) -> bool {
         false
     } else {
         on
+    }
+}
+
+/// Slope d/dx of [`interpolate`] at x: the slope of the segment that
+/// `interpolate` uses there, 0 beyond the table's ends.
+pub fn interpolate_slope(xs: &[f64], ys: &[f64], x: f64) -> f64 {
+    match xs.iter().position(|&xi| xi > x) {
+        None | Some(0) => 0.0,
+        Some(i) => (ys[i] - ys[i - 1]) / (xs[i] - xs[i - 1]),
     }
 }
 
@@ -107,6 +158,27 @@ impl Lag {
     pub fn derivative(&self, u: f64, x: &[f64], out: &mut [f64]) {
         if let (Some(d), Some(y)) = (out.first_mut(), x.first()) {
             *d = (u - y) / self.tau;
+        }
+    }
+    /// Partials of the output (phase `Signals`, output `row`) or of ẏ
+    /// (`Derivatives`) for an input u that moves with the block's inputs as
+    /// `du` lists ((input, ∂u/∂input) pairs).
+    pub fn partials(&self, phase: crate::block::Phase, row: usize, du: &[(crate::block::In, f64)], d: &mut crate::block::Partials) {
+        use crate::block::{In, Out, Phase};
+        match phase {
+            Phase::Signals if self.tau > 0.0 => d.set(Out::Signal(row), In::State(0), 1.0),
+            Phase::Signals => {
+                for &(input, v) in du {
+                    d.add(Out::Signal(row), input, v);
+                }
+            }
+            Phase::Derivatives if self.tau > 0.0 => {
+                d.set(Out::Rate(0), In::State(0), -1.0 / self.tau);
+                for &(input, v) in du {
+                    d.add(Out::Rate(0), input, v / self.tau);
+                }
+            }
+            _ => {}
         }
     }
     /// The state starts at the input (a sensor reads the initial value).
@@ -194,6 +266,24 @@ impl Spool {
             out[1] = self.omega * self.omega * (u - x[0]) - 2.0 * self.zeta * self.omega * x[1];
         } else {
             out[0] = (u - x[0]) / self.tau;
+        }
+    }
+    /// Partials of [`Spool::derivatives`] for a command u moving with the
+    /// block's inputs as `du` lists.
+    pub fn partials(&self, du: &[(crate::block::In, f64)], d: &mut crate::block::Partials) {
+        use crate::block::{In, Out};
+        let (row, gain) = if self.second_order {
+            d.set(Out::Rate(0), In::State(1), 1.0);
+            let w2 = self.omega * self.omega;
+            d.set(Out::Rate(1), In::State(0), -w2);
+            d.set(Out::Rate(1), In::State(1), -2.0 * self.zeta * self.omega);
+            (1, w2)
+        } else {
+            d.set(Out::Rate(0), In::State(0), -1.0 / self.tau);
+            (0, 1.0 / self.tau)
+        };
+        for &(input, v) in du {
+            d.add(Out::Rate(row), input, gain * v);
         }
     }
     /// At rest at command u.

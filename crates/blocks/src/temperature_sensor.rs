@@ -63,6 +63,10 @@ impl Block for TemperatureSensor {
     fn flows(&self, _ctx: &Ctx, out: &mut [PortFlow]) {
         out[0] = PortFlow::default();
     }
+    fn partials(&self, phase: Phase, _ctx: &Ctx, _b: &Balances, d: &mut Partials) -> bool {
+        self.lag.partials(phase, 0, &[(In::T(0), 1.0)], d);
+        true
+    }
     fn signal_outputs(&self, ctx: &Ctx, out: &mut [f64]) {
         out[0] = self.lag.output(ctx.pneumatic[0].t, ctx.states);
     }

@@ -90,6 +90,11 @@ impl Block for Timer {
     fn gas_role(&self) -> GasRole {
         GasRole::None
     }
+    /// Every output is piecewise constant in the continuous states (it
+    /// changes only at events): all partials are zero.
+    fn partials(&self, _phase: Phase, _ctx: &Ctx, _b: &Balances, _d: &mut Partials) -> bool {
+        true
+    }
     fn signal_outputs(&self, _ctx: &Ctx, out: &mut [f64]) {
         out[0] = if self.output { 1.0 } else { 0.0 };
     }

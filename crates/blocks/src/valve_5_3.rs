@@ -315,6 +315,35 @@ impl Block for Valve53 {
         }
         Some((sum, slope))
     }
+    fn partials(&self, phase: Phase, ctx: &Ctx, _b: &Balances, d: &mut Partials) -> bool {
+        match phase {
+            Phase::Flows => {
+                let s = self.spool(ctx.states);
+                // a lagged spool moves the openings; the target itself is piecewise constant
+                let ds = match ctx.states.first() {
+                    Some(&x) if self.spool_tau > 0.0 && (-1.0..=1.0).contains(&x) => 1.0,
+                    _ => 0.0,
+                };
+                for path in &self.paths {
+                    let (opening, slope) = match path.group {
+                        Group::Side14 => (s.max(0.0), if s > 0.0 { ds } else { 0.0 }),
+                        Group::Side12 => ((-s).max(0.0), if s < 0.0 { -ds } else { 0.0 }),
+                        Group::Centre => (1.0 - s.abs(), -s.signum() * ds),
+                    };
+                    let (a, b) = (&ctx.pneumatic[path.from], &ctx.pneumatic[path.to]);
+                    let r = crate::conductance::restriction_partials(&path.flow, opening, a, b, 0.0, ctx.gas);
+                    crate::conductance::add_path(d, path.from, path.to, &r, &[(In::State(0), slope)]);
+                    if let Some(leak) = &path.leak {
+                        let r = crate::conductance::restriction_partials(leak, 1.0 - opening, a, b, 0.0, ctx.gas);
+                        crate::conductance::add_path(d, path.from, path.to, &r, &[(In::State(0), -slope)]);
+                    }
+                }
+            }
+            Phase::Derivatives if self.spool_tau > 0.0 => d.set(Out::Rate(0), In::State(0), -1.0 / self.spool_tau),
+            _ => {}
+        }
+        true
+    }
     fn derivatives(&self, ctx: &Ctx, _b: &Balances, out: &mut [f64]) {
         if let (Some(d), Some(&s)) = (out.first_mut(), ctx.states.first()) {
             *d = (self.target() - s) / self.spool_tau;

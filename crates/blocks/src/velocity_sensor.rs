@@ -57,6 +57,10 @@ impl Block for VelocitySensor {
     fn forces(&self, _ctx: &Ctx, out: &mut [PortForce]) {
         out[0] = PortForce::default();
     }
+    fn partials(&self, phase: Phase, _ctx: &Ctx, _b: &Balances, d: &mut Partials) -> bool {
+        self.lag.partials(phase, 0, &[(In::V(0), 1.0)], d);
+        true
+    }
     fn signal_outputs(&self, ctx: &Ctx, out: &mut [f64]) {
         out[0] = self.lag.output(ctx.mechanical[0].v, ctx.states);
     }

@@ -6,7 +6,6 @@
 use crate::args::{check, conductance, discrepancy, draw, fmu, linearize, plot, report, simulate, sweep};
 use clap::{Parser, Subcommand};
 use pneumo_app::error::one_line;
-use pneumo_app::load;
 
 /// Simulate pneumatic circuits written as JSON netlists.
 #[derive(Parser, Debug)]
@@ -14,13 +13,6 @@ use pneumo_app::load;
 struct Cli {
     #[command(subcommand)]
     command: Command,
-    /// Most components a circuit may expand to (subsystems included).
-    #[arg(long = "max-components", global = true, value_name = "N", default_value_t = graph::expand::DEFAULT_MAX_COMPONENTS, allow_negative_numbers = true)]
-    max_components: usize,
-    /// Memory a run may plan to use [MiB] (result traces, the solver's matrices; input files get a quarter of it);
-    /// larger runs and inputs are refused before they start.
-    #[arg(long = "max-memory", global = true, value_name = "MiB", default_value_t = load::DEFAULT_MAX_MEMORY_MIB, allow_negative_numbers = true)]
-    max_memory: u64,
 }
 
 #[derive(Subcommand, Debug)]
@@ -65,19 +57,51 @@ where
         Ok(cli) => cli,
         Err(e) => return usage_error(e),
     };
-    load::set_limits(load::Limits { max_components: cli.max_components, max_memory_mib: cli.max_memory });
     let result = match cli.command {
-        Command::Check(a) => check::run(a),
-        Command::Simulate(a) => simulate::run(a),
-        Command::Sweep(a) => sweep::run(a),
-        Command::Merge(a) => sweep::run_merge(a),
-        Command::Plot(a) => plot::run(a),
-        Command::Conductance(a) => conductance::run(a),
-        Command::Discrepancy(a) => discrepancy::run(a),
-        Command::Linearize(a) => linearize::run(a),
-        Command::Fmu(a) => fmu::run(a),
-        Command::Draw(a) => draw::run(a),
-        Command::Report(a) => report::run(a),
+        Command::Check(a) => {
+            a.limits.apply();
+            check::run(a)
+        }
+        Command::Simulate(a) => {
+            a.limits.apply();
+            simulate::run(a)
+        }
+        Command::Sweep(a) => {
+            a.limits.apply();
+            sweep::run(a)
+        }
+        Command::Merge(a) => {
+            a.limits.apply();
+            sweep::run_merge(a)
+        }
+        Command::Plot(a) => {
+            a.limits.apply();
+            plot::run(a)
+        }
+        Command::Conductance(a) => {
+            a.limits.apply();
+            conductance::run(a)
+        }
+        Command::Discrepancy(a) => {
+            a.limits.apply();
+            discrepancy::run(a)
+        }
+        Command::Linearize(a) => {
+            a.limits.apply();
+            linearize::run(a)
+        }
+        Command::Fmu(a) => {
+            a.limits.apply();
+            fmu::run(a)
+        }
+        Command::Draw(a) => {
+            a.limits.apply();
+            draw::run(a)
+        }
+        Command::Report(a) => {
+            a.limits.apply();
+            report::run(a)
+        }
         Command::Schema => {
             println!("{}", serde_json::to_string_pretty(&graph::netlist::schema()).unwrap_or_default());
             Ok(())

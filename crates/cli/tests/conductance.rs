@@ -208,3 +208,27 @@ fn conductance_thermal_options_and_warnings() {
     assert!(!out.status.success() && err.lines().count() == 1, "{err}");
     assert!(err.contains("celsius.csv") && err.contains("in K"), "{err}");
 }
+
+#[test]
+fn conductance_reads_pneumo_simulates_own_csv_by_column() {
+    let dir = Scratch::new("conductance-columns");
+    let model = common::repo().join("models/tank_discharge.json");
+    let out = pneumo(&dir.0, &["simulate", model.to_str().expect("utf-8"), "--out", "r.csv"]);
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    // the model: 1 L at 7 bar through C = 100 L/min/bar, b = 0.3, adiabatic
+    let (rep, _) = json_report(
+        &dir.0,
+        &["--volume", "1 L", "--data", "r.csv", "--p-column", "tank.p", "--T-column", "tank.T", "--p-atm", "1.013 bar"],
+    );
+    let (c, b) = c_and_b(&rep);
+    assert!((c / 100.0 - 1.0).abs() < 0.02 && (b - 0.3).abs() < 0.05, "C {c} b {b}");
+    // without the option, the message says which option reads this file
+    let out = pneumo(&dir.0, &["conductance", "--volume", "1 L", "--data", "r.csv"]);
+    let err = text(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "{err}");
+    assert!(err.contains("--p-column tank.p"), "{err}");
+    // a misspelt column is named, with the nearest
+    let out = pneumo(&dir.0, &["conductance", "--volume", "1 L", "--data", "r.csv", "--p-column", "tank.pp"]);
+    let err = text(&out.stderr);
+    assert!(err.contains("\"tank.pp\"") && err.contains("did you mean \"tank.p\""), "{err}");
+}

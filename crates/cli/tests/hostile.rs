@@ -228,6 +228,43 @@ fn usage_errors_are_one_line_and_help_stays_rich() {
 }
 
 #[test]
+fn discrepancy_without_its_arguments_is_a_usage_error_naming_them() {
+    let dir = Scratch::new("disc-usage");
+    for (args, needle) in [(&["discrepancy"][..], "MODEL.json"), (&["discrepancy", "m.json"], "--experiments")] {
+        let out = pneumo(&dir.0, args);
+        let err = text(&out.stderr);
+        assert_eq!(out.status.code(), Some(2), "{args:?}: {err}");
+        assert_eq!(err.lines().count(), 1, "{err}");
+        assert!(err.contains(needle) && err.contains("required"), "{args:?}: {err}");
+    }
+    // the help shows them as required, not in brackets
+    let help = text(&pneumo(&dir.0, &["discrepancy", "--help"]).stdout);
+    let usage = help.lines().find(|l| l.starts_with("Usage:")).expect("a usage line");
+    assert!(usage.contains("<MODEL.json>") && usage.contains("--experiments <EXPERIMENTS.json>"), "{usage}");
+    assert!(!usage.contains("[MODEL.json]"), "{usage}");
+}
+
+#[test]
+fn limits_are_options_of_the_commands_they_limit() {
+    let dir = Scratch::new("limits");
+    let help = |args: &[&str]| text(&pneumo(&dir.0, args).stdout);
+    for command in ["check", "simulate", "sweep", "discrepancy", "linearize", "fmu", "draw", "report"] {
+        let h = help(&[command, "--help"]);
+        assert!(h.contains("--max-components") && h.contains("--max-memory"), "{command} --help:\n{h}");
+    }
+    for command in ["plot", "conductance", "merge"] {
+        let h = help(&[command, "--help"]);
+        assert!(h.contains("--max-memory") && !h.contains("--max-components"), "{command} --help:\n{h}");
+    }
+    for command in ["schema", "blocks"] {
+        let h = help(&[command, "--help"]);
+        assert!(!h.contains("--max-"), "{command} --help:\n{h}");
+        assert_eq!(pneumo(&dir.0, &[command, "--max-memory", "64"]).status.code(), Some(2), "{command} --max-memory");
+    }
+    assert!(!help(&["--help"]).contains("--max-"), "the top-level help lists no limits");
+}
+
+#[test]
 fn ids_with_dots_byte_order_marks_and_recursion_are_clear() {
     let dir = Scratch::new("ids");
     dir.write("dot.json", r#"{ "components": [ { "id": "a.b", "type": "chamber", "params": { "dead_volume": "1 L" } } ] }"#);
@@ -324,6 +361,43 @@ fn set_with_a_100_kb_value_is_echoed_short_and_extreme_numbers_print_readably() 
 }
 
 #[test]
+fn a_bore_whose_area_underflows_is_refused_naming_component_and_parameter() {
+    let dir = Scratch::new("tinybore");
+    let m = local_model(&dir);
+    // the area pi/4 bore^2 underflows to 0: refused at the chamber, not later as a missing port
+    let err = fails_cleanly(
+        &dir,
+        &["check", &m, "--set", "head.bore=5e-324"],
+        &["\"head\"", "\"bore\"", "of 0 m2", "bore 5e-324 m", "positive normal"],
+    );
+    assert!(!err.contains("no such port"), "{err}");
+    // the built-in cylinder's bore reaches both of its chambers; rod_diameter 0 keeps its own check out of the way
+    let built_in = repo().join("models/meter_in.json");
+    let built_in = built_in.to_str().expect("utf-8 path");
+    let err = fails_cleanly(
+        &dir,
+        &["check", built_in, "--set", "cyl.bore=1e-160", "--set", "cyl.rod_diameter=0"],
+        &["cyl.", "\"bore\"", "positive normal"],
+    );
+    assert!(!err.contains("no such port"), "{err}");
+}
+
+#[test]
+fn a_100_kb_run_of_digits_is_quoted_short_not_read_as_infinity() {
+    let dir = Scratch::new("digits");
+    let m = local_model(&dir);
+    let digits = "1".repeat(100_000);
+    for value in [digits.clone(), format!("{digits} bar")] {
+        let err = fails_cleanly(
+            &dir,
+            &["check", &m, "--set", &format!("supply.p={value}")],
+            &["\"p\"", "1111", "characters)", "not a finite number"],
+        );
+        assert!(!err.contains("inf"), "{err}");
+    }
+}
+
+#[test]
 fn cycles_0_is_refused_with_the_usage_status() {
     let dir = Scratch::new("cycles0");
     let m = local_model(&dir);
@@ -392,5 +466,5 @@ fn a_50_mb_netlist_follows_the_memory_budget_and_names_its_unknown_type() {
     dir.write("unknown.json", &big_netlist(50_000_000, 5000, "warp_drive"));
     fails_cleanly(&dir, &["check", "unknown.json"], &["warp_drive"]);
     // a budget too small for the file: refused unread, naming the setting that raises it
-    fails_cleanly(&dir, &["--max-memory", "64", "check", "long.json"], &["long.json", "MiB", "--max-memory"]);
+    fails_cleanly(&dir, &["check", "--max-memory", "64", "long.json"], &["long.json", "MiB", "--max-memory"]);
 }

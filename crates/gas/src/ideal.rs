@@ -83,6 +83,11 @@ impl GasModel for IdealGas {
         self.cv
     }
 
+    fn second_derivatives(&self, rho: f64, t: f64) -> [f64; 4] {
+        // c_v constant; T p_T = ρRT
+        [0.0, 0.0, self.r * t, rho * self.r]
+    }
+
     fn cp(&self, _rho: f64, _t: f64) -> f64 {
         self.cp_const()
     }

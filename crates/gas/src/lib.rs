@@ -115,6 +115,19 @@ pub trait GasModel: Debug + Send + Sync {
     fn compressibility(&self, rho: f64, t: f64) -> f64 {
         self.pressure(rho, t) / (rho * self.r() * t)
     }
+    /// Slopes of c_v and of T·(∂p/∂T)_ρ in (ρ, T), for exact Jacobians of
+    /// the energy balance (Eq. 13): `[∂cv/∂ρ, ∂cv/∂T, ∂(T p_T)/∂ρ, ∂(T p_T)/∂T]`.
+    /// Default: central differences of [`GasModel::cv`] and
+    /// [`GasModel::t_dp_dt`] (relative error about 1e-10); the ideal and
+    /// semi-perfect models give them in closed form.
+    fn second_derivatives(&self, rho: f64, t: f64) -> [f64; 4] {
+        let (dr, dt) = (1e-5 * rho.abs().max(1e-3), 1e-5 * t);
+        let by_rho = |f: &dyn Fn(f64, f64) -> f64| (f(rho + dr, t) - f(rho - dr, t)) / (2.0 * dr);
+        let by_t = |f: &dyn Fn(f64, f64) -> f64| (f(rho, t + dt) - f(rho, t - dt)) / (2.0 * dt);
+        let cv = |r: f64, t: f64| self.cv(r, t);
+        let tpt = |r: f64, t: f64| self.t_dp_dt(r, t);
+        [by_rho(&cv), by_t(&cv), by_rho(&tpt), by_t(&tpt)]
+    }
     /// Full state from pressure and temperature.
     fn state_pt(&self, p: f64, t: f64) -> GasState {
         let rho = self.density(p, t);

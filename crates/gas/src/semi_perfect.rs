@@ -191,6 +191,18 @@ impl GasModel for SemiPerfectGas {
         self.cv0(t)
     }
 
+    fn second_derivatives(&self, rho: f64, t: f64) -> [f64; 4] {
+        // c_v(T) = c_p0(T) − R, piecewise as in `cp0`; T p_T = ρRT
+        let dcv = if t < Self::T_MIN {
+            0.0
+        } else if t > Self::T_MAX {
+            self.slope_hi
+        } else {
+            self.r * poly_dcp_r(&self.a, t)
+        };
+        [0.0, dcv, self.r * t, rho * self.r]
+    }
+
     fn cp(&self, _rho: f64, t: f64) -> f64 {
         self.cp0(t)
     }

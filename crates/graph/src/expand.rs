@@ -365,7 +365,9 @@ fn prefix_scopes(instance: &str, scopes: BTreeMap<String, String>) -> BTreeMap<S
 /// Read a `--set` value: a plain number is SI, anything else keeps its text (with unit).
 pub fn value_from_text(text: &str) -> Value {
     match text.trim().parse::<f64>() {
-        Ok(x) => Value::Number(x),
+        // a run of digits beyond f64 stays text, so the unit parser refuses it quoting the input
+        Ok(x) if x.is_finite() => Value::Number(x),
+        Ok(_) => Value::Text(text.trim().to_string()),
         Err(_) => Value::Text(text.trim().to_string()),
     }
 }
@@ -446,9 +448,24 @@ fn set_component_value(flat: &mut FlatNetlist, target: &str, value: &str) -> Res
             format!("subsystem \"{}\" has no parameter \"{}\" (it has: {})", crate::escape(id), crate::escape(param), name_list(&names))
         } else {
             let ids = scope_ids(flat);
-            format!("no component \"{}\" (components: {})", crate::escape(id), name_list(&ids))
+            let hint = blocks::suggest::did_you_mean(id, ids.iter().map(String::as_str));
+            format!("no component \"{}\"{hint} (components: {})", crate::escape(id), name_list(&ids))
         });
     };
+    // a misspelt parameter is refused here, where it is set (Python's Model.set
+    // raises at once), not when the circuit is next built
+    if let Ok(ty) = blocks::registry::block_type(&comp.kind) {
+        if !ty.params.iter().any(|s| s.name == param) {
+            let hint = blocks::suggest::did_you_mean(param, ty.params.iter().map(|s| s.name));
+            let accepted: Vec<&str> = ty.params.iter().map(|s| s.name).collect();
+            return Err(format!(
+                "component \"{}\": unknown parameter \"{}\"{hint} (accepted: {})",
+                crate::escape(id),
+                crate::escape(param),
+                accepted.join(", ")
+            ));
+        }
+    }
     let in_init = comp.init.remove(param).is_some();
     comp.params.remove(param);
     let map = if in_init { &mut comp.init } else { &mut comp.params };
@@ -568,8 +585,11 @@ mod tests {
     #[test]
     fn a_component_called_gas_keeps_its_parameters() {
         let mut f = flat(r#"{"id": "gas", "type": "chamber", "params": {}}"#);
-        apply_set(&mut f, "gas.model=real").unwrap();
+        apply_set(&mut f, "gas.T0=300 K").unwrap();
+        assert!(f.components[0].params.contains_key("T0"));
+        // "gas.model" names the component's (missing) parameter, not the gas
+        let e = apply_set(&mut f, "gas.model=real").unwrap_err().to_string();
+        assert!(e.contains("component \"gas\"") && e.contains("\"model\""), "{e}");
         assert_eq!(f.gas.model, GasModelName::Ideal);
-        assert!(f.components[0].params.contains_key("model"));
     }
 }

@@ -439,19 +439,33 @@ pub fn schema() -> serde_json::Value {
     use serde_json::json;
     let mut schema = serde_json::to_value(schemars::schema_for!(Netlist)).unwrap_or(serde_json::Value::Null);
     let mut types: Vec<&str> = blocks::registry::TYPES.iter().map(|t| t.name).collect();
+    types.extend(crate::library::names());
     types.push("subsystem");
-    let per_type: Vec<serde_json::Value> = blocks::registry::TYPES
-        .iter()
-        .map(|t| {
-            let props: serde_json::Map<String, serde_json::Value> =
-                t.params.iter().map(|p| (p.name.to_string(), param_schema(p))).collect();
-            let values = json!({ "type": "object", "properties": props, "additionalProperties": false });
-            json!({
-                "if": { "properties": { "type": { "const": t.name } }, "required": ["type"] },
-                "then": { "description": t.doc, "properties": { "params": values.clone(), "init": values } }
-            })
+    let one_type = |name: &str, doc: &str, props: serde_json::Map<String, serde_json::Value>| {
+        let values = json!({ "type": "object", "properties": props, "additionalProperties": false });
+        json!({
+            "if": { "properties": { "type": { "const": name } }, "required": ["type"] },
+            "then": { "description": doc, "properties": { "params": values.clone(), "init": values } }
         })
+    };
+    let mut per_type: Vec<serde_json::Value> = blocks::registry::TYPES
+        .iter()
+        .map(|t| one_type(t.name, t.doc, t.params.iter().map(|p| (p.name.to_string(), param_schema(p))).collect()))
         .collect();
+    // built-in components (`"type": "cylinder"`): an instance sets the
+    // sub-circuit's declared parameters and its interface parameters, nothing else
+    for entry in crate::library::ENTRIES {
+        let Ok(n) = crate::library::netlist(entry) else { continue };
+        let mut props: serde_json::Map<String, serde_json::Value> = n
+            .parameters
+            .iter()
+            .map(|(name, decl)| (name.clone(), built_in_param_schema(decl.description().unwrap_or(""), &default_text(decl.value()))))
+            .collect();
+        for (name, targets) in n.interface.as_ref().map(|i| &i.params).into_iter().flatten() {
+            props.insert(name.clone(), built_in_param_schema(&format!("sets {}", targets.join(", ")), "free"));
+        }
+        per_type.push(one_type(entry.name, n.description.as_deref().unwrap_or(""), props));
+    }
     if let Some(component) = schema.pointer_mut("/$defs/Component") {
         component["properties"]["type"]["enum"] = json!(types);
         component["allOf"] = json!(per_type);
@@ -466,6 +480,21 @@ pub fn schema() -> serde_json::Value {
         }
     }
     schema
+}
+
+/// Schema of a built-in component's parameter: a number (SI), a text with
+/// unit or an expression, described with its default.
+fn built_in_param_schema(doc: &str, default: &str) -> serde_json::Value {
+    serde_json::json!({ "description": format!("{doc} (default {default})"), "anyOf": [{ "type": "number" }, { "type": "string" }] })
+}
+
+/// A parameter's default as written in the built-in's netlist.
+fn default_text(v: &Value) -> String {
+    match v {
+        Value::Number(x) => x.to_string(),
+        Value::Text(t) => t.clone(),
+        Value::List(_) => "a list".to_string(),
+    }
 }
 
 /// Schema of one block parameter: a number (SI), a text with unit or an

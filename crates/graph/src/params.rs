@@ -485,6 +485,11 @@ pub fn literal(text: &str) -> Result<Quantity, String> {
         .map(|(i, _)| i)
         .unwrap_or(t.len());
     if let Ok(x) = t[..split].parse::<f64>() {
+        // a run of digits beyond f64 is refused, quoting the input shortened
+        // ("inf" itself was taken above)
+        if !x.is_finite() {
+            return Err(units::UnitError::NonFinite { text: t.to_string() }.to_string());
+        }
         let unit = t[split..].trim();
         if unit.is_empty() {
             return Ok(Quantity { value: x, dim: dim::DIMENSIONLESS });

@@ -361,10 +361,16 @@ fn set_reaches_the_block_and_its_errors_name_the_parameter() {
     graph::apply_set(&mut flat, "valve.b=1.5").unwrap();
     let e = graph::build(&flat).unwrap_err().to_string();
     assert_names(&e, &["\"valve\"", "\"b\"", "(0, 1)"]);
-    // an unknown parameter through --set is caught when the block is built
+    // an unknown parameter through --set is refused where it is set (so that
+    // Python's Model.set raises at once), with the nearest name
     let mut flat = flatten(&tank_fill(json!({ "dead_volume": "1 L" }))).unwrap();
-    graph::apply_set(&mut flat, "tank.volume=2 L").unwrap();
-    assert_names(&graph::build(&flat).unwrap_err().to_string(), &["\"tank\"", "\"volume\""]);
+    let e = graph::apply_set(&mut flat, "tank.volume=2 L").unwrap_err().to_string();
+    assert_names(&e, &["\"tank\"", "\"volume\"", "accepted: ", "dead_volume"]);
+    let e = graph::apply_set(&mut flat, "valve.CC=2 L/min/bar").unwrap_err().to_string();
+    assert_names(&e, &["\"valve\"", "\"CC\"", "did you mean \"C\""]);
+    let e = graph::apply_set(&mut flat, "valv.C=2 L/min/bar").unwrap_err().to_string();
+    assert_names(&e, &["did you mean \"valve\""]);
+    graph::apply_set(&mut flat, "tank.p0=3 bar").expect("an initial value is a parameter too");
 }
 
 // ---------------------------------------------------------------------------

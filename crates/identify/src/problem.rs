@@ -309,8 +309,30 @@ pub fn channel_residuals(
     (rows, fit)
 }
 
+/// Simulations run by this process and their summed wall time [ns]
+/// (run-time accounting of docs/discrepancy.md, "Run time").
+static SIMULATIONS: std::sync::atomic::AtomicUsize = std::sync::atomic::AtomicUsize::new(0);
+static SIMULATED_NS: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(0);
+static SIMULATED_SECONDS: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(0);
+
+/// (simulations run, their summed wall time [s], simulated time [s]) since the process started.
+pub fn simulation_count() -> (usize, f64, f64) {
+    use std::sync::atomic::Ordering::Relaxed;
+    (SIMULATIONS.load(Relaxed), SIMULATED_NS.load(Relaxed) as f64 * 1e-9, SIMULATED_SECONDS.load(Relaxed) as f64 * 1e-6)
+}
+
 /// Simulate a netlist for `duration` seconds with output every `interval`.
 pub fn simulate_netlist(flat: &FlatNetlist, duration: f64, interval: f64, s: &SimSettings) -> Result<solve::SimResult, String> {
+    use std::sync::atomic::Ordering::Relaxed;
+    let clock = std::time::Instant::now();
+    let out = simulate_netlist_uncounted(flat, duration, interval, s);
+    SIMULATIONS.fetch_add(1, Relaxed);
+    SIMULATED_NS.fetch_add(clock.elapsed().as_nanos() as u64, Relaxed);
+    SIMULATED_SECONDS.fetch_add((duration * 1e6) as u64, Relaxed);
+    out
+}
+
+fn simulate_netlist_uncounted(flat: &FlatNetlist, duration: f64, interval: f64, s: &SimSettings) -> Result<solve::SimResult, String> {
     let circuit = graph::build(flat).map_err(|e| e.to_string())?;
     let mut opts = solve::options_from(&circuit.simulation).map_err(|e| e.to_string())?;
     opts.cycles = None;

@@ -44,6 +44,14 @@ fn run(case: Case, seed: u64, variation: Variation, cycles: usize) -> (truth::Tr
     if let Some(n) = std::env::var("SCREEN_PREPARE").ok().and_then(|s| s.parse().ok()) {
         options.screen_prepare = n;
     }
+    // PROGRESS=1 prints the workflow's progress with the time since the start
+    if std::env::var("PROGRESS").is_ok_and(|s| s == "1") {
+        let clock = std::time::Instant::now();
+        options.progress = identify::options::Progress::to(move |m| {
+            let (n, _, _) = identify::problem::simulation_count();
+            eprintln!("[{:7.1} s, {n:6} sims] {m}", clock.elapsed().as_secs_f64())
+        });
+    }
     if std::env::var("SENSORS").is_ok_and(|s| s == "offset") {
         options.sensors.gain = false;
         options.sensors.skew = 0.0;
@@ -157,4 +165,34 @@ fn full_matrix() {
         }
     }
     println!("| truth | hidden | named exactly | outcomes |\n|---|---|---|---|\n{}", lines.join("\n"));
+}
+
+/// Where the time of one run goes (docs/discrepancy.md, "Run time"):
+/// `CASES=<case> VARIATION=nominal SEEDS=1 cargo test --release -p pneumo-identify --test independent profile_run -- --ignored --nocapture`
+/// (first case and seed of the selection; three cycles as in the matrix).
+#[test]
+#[ignore = "study: run with --release -- --ignored --nocapture"]
+fn profile_run() {
+    let case = std::env::var("CASES").ok().and_then(|c| Case::ALL.into_iter().find(|k| k.name() == c)).unwrap_or(Case::Null);
+    let variation = if std::env::var("VARIATION").is_ok_and(|v| v == "varied") { Variation::Varied } else { Variation::Nominal };
+    let (s0, w0, _) = identify::problem::simulation_count();
+    let clock = std::time::Instant::now();
+    let (t, o) = run(case, first_seed(), variation, 3);
+    let seconds = clock.elapsed().as_secs_f64();
+    let (s1, w1, d1) = identify::problem::simulation_count();
+    eprintln!("{}\n{}", t.description, table(&o));
+    eprintln!(
+        "{variation:?} {} seed {}: {seconds:.1} s wall, {} simulations of one experiment ({:.1} s simulated in all, {:.1} ms each on average, {:.1} s summed over threads), workflow evaluations {}",
+        case.name(),
+        first_seed(),
+        s1 - s0,
+        d1,
+        1e3 * (w1 - w0) / (s1 - s0).max(1) as f64,
+        w1 - w0,
+        o.summary.evaluations
+    );
+    eprintln!("stages: {:?}", o.summary.timing);
+    for c in &o.summary.candidates {
+        eprintln!("  r{} {:<18} {:>6} simulations (of all experiments) {}", c.round, c.effect, c.evaluations, c.fit_message);
+    }
 }

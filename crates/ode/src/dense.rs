@@ -25,6 +25,11 @@ pub(crate) struct StepDense<'a> {
 impl StepDense<'_> {
     /// Interpolate at `t` (no range check).
     pub(crate) fn interpolate(&self, t: f64, out: &mut [f64]) {
+        if t == self.t1 {
+            // the step's own end, bit for bit (a caller may recognise the point)
+            out[..self.y1.len()].copy_from_slice(self.y1);
+            return;
+        }
         let h = self.t1 - self.t0;
         let theta = if h != 0.0 { (t - self.t0) / h } else { 1.0 };
         let s1 = 1.0 - theta;

@@ -11,6 +11,7 @@
 mod discrepancy;
 mod errors;
 mod interrupt;
+mod linearize;
 mod model;
 mod result;
 mod sweep;
@@ -40,6 +41,7 @@ fn schema_json() -> String {
 fn _pneumo(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<model::Netlist>()?;
     m.add_class::<result::RawResult>()?;
+    m.add_class::<linearize::RawLinearization>()?;
     m.add_class::<sweep::SweepPlan>()?;
     m.add_function(wrap_pyfunction!(discrepancy::discrepancy, m)?)?;
     m.add_function(wrap_pyfunction!(main, m)?)?;

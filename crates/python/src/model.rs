@@ -4,6 +4,7 @@
 //! it to another process (a Dask worker) without the file system.
 
 use crate::errors::IntoPy;
+use crate::linearize::RawLinearization;
 use crate::result::RawResult;
 use graph::FlatNetlist;
 use pneumo_app::load::Source;
@@ -219,6 +220,34 @@ impl Netlist {
         })?;
         let (run, warnings) = outcome.py_err(py)?;
         Ok(RawResult::new(run, warnings))
+    }
+
+    /// The linear model about the operating point `at` ("rest" or
+    /// "t=1.2 s"), inputs and outputs from the netlist's interface section
+    /// (GIL released, panics caught).
+    #[pyo3(signature = (at, keep_all_states = false))]
+    fn linearize(&self, py: Python<'_>, at: String, keep_all_states: bool) -> PyResult<RawLinearization> {
+        let flat = self.flat.clone();
+        let lin = crate::interrupt::detached(py, move || pneumo_app::linearize::linearize_netlist(&flat, &at, keep_all_states))?;
+        Ok(RawLinearization::new(lin.py_err(py)?))
+    }
+
+    /// Export as an FMI 2.0 Co-Simulation FMU at `out`, with the runtime
+    /// library at `runtime`. The FMU carries the netlist files as read:
+    /// overrides are refused (save the model with them and load that).
+    fn export_fmu(&self, py: Python<'_>, out: PathBuf, runtime: PathBuf) -> PyResult<()> {
+        if !self.sets.is_empty() {
+            return Err(crate::errors::exception(
+                py,
+                "UsageError",
+                &format!(
+                    "export_fmu: the model has overrides ({}); an FMU carries the netlist files as written: save the model (Model.save) and export the saved file, or set top-level parameters in the FMU",
+                    pneumo_app::error::one_line(&self.sets.join("; "))
+                ),
+            ));
+        }
+        let (flat, source) = (self.base.clone(), self.source.clone());
+        crate::interrupt::detached(py, move || pneumo_app::fmu::export_source(&flat, &source, &out, &runtime))?.py_err(py)
     }
 
     fn __repr__(&self) -> String {

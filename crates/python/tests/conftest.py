@@ -67,3 +67,37 @@ def python_child():
         if child.poll() is None:
             child.kill()
             child.wait()
+
+
+@pytest.fixture(scope="session")
+def fmu_runtime() -> Path:
+    """The FMU runtime library of this checkout (crates/fmu), never a stale
+    copy: the file ``PNEUMO_FMU_RUNTIME`` names (scripts/test-all builds it
+    with ``cargo build --release --locked -p pneumo-fmu`` just before the
+    Python tests and names it there), else the one cargo builds now. Skipped
+    with the reason when neither is possible (a package installed without
+    its source tree)."""
+    named = os.environ.get("PNEUMO_FMU_RUNTIME")
+    if named:
+        path = Path(named)
+        assert path.is_file(), f"PNEUMO_FMU_RUNTIME={named} is not a file"
+        return path
+    import json
+    import shutil
+
+    if shutil.which("cargo") is None or not (ROOT / "Cargo.toml").is_file():
+        pytest.skip("no FMU runtime library: set PNEUMO_FMU_RUNTIME or run from a checkout with cargo (scripts/test-all does)")
+    out = subprocess.run(
+        ["cargo", "build", "--release", "--locked", "-p", "pneumo-fmu", "--message-format=json-render-diagnostics"],
+        cwd=ROOT,
+        capture_output=True,
+        text=True,
+    )
+    assert out.returncode == 0, out.stderr
+    for line in out.stdout.splitlines():
+        msg = json.loads(line)
+        if msg.get("reason") == "compiler-artifact" and "cdylib" in msg.get("target", {}).get("crate_types", []):
+            for f in msg.get("filenames", []):
+                if f.endswith(".so"):
+                    return Path(f)
+    raise AssertionError("cargo built no libpneumo_fmu.so")

@@ -85,3 +85,20 @@ print("finished", flush=True)
     out, err = child.communicate(timeout=60)
     assert child.returncode == 42, f"stdout {out!r} stderr {err!r}"
     assert time.monotonic() - sent < 10, "every simulation of the analysis is cancelled"
+
+
+def test_intervals_read_in_the_unit_of_the_value():
+    # a conductance: SI 5e-11 m3/(s Pa) is 0.3 L/min/bar; its interval must not print as 0.0 beside it
+    from pneumo._discrepancy import _estimates
+
+    si = 1e-3 / 60.0 / 1e5
+    entry = {"name": "leak.C", "value": 0.3 * si, "unit": "L/min/bar", "shown": 0.3,
+             "std_error": 0.01 * si, "ci95": [0.28 * si, 0.32 * si], "at_bound": False}
+    gauge = {"name": "supply.p", "value": 5e5, "unit": "barg", "shown": 3.99, "std_error": 1e3, "ci95": [4.98e5, 5.02e5]}
+    df = _estimates([entry, gauge])
+    row = df.loc["leak.C"]
+    assert row["value_in_unit"] == 0.3
+    assert abs(row["std_error_in_unit"] - 0.01) < 1e-12
+    assert abs(row["ci95_low_in_unit"] - 0.28) < 1e-12 and abs(row["ci95_high_in_unit"] - 0.32) < 1e-12
+    # a unit with an offset is not scaled: no number rather than a wrong one
+    assert df.loc["supply.p"]["ci95_low_in_unit"] is None or df.loc["supply.p"]["ci95_low_in_unit"] != df.loc["supply.p"]["ci95_low_in_unit"]

@@ -82,6 +82,12 @@ def test_errors_are_the_command_lines_messages_in_their_classes(meter_out, cli_m
         m.set(**{"suply.p": "6 bar"})
     assert str(e.value) == cli_message("simulate", str(meter_out), "--set", "suply.p=6 bar")
     assert m.sets == [], "a failed set leaves the model unchanged"
+    # a misspelt parameter raises at once, with the command line's did-you-mean
+    with pytest.raises(pneumo.NetlistError) as e:
+        m.set(**{"supply.pp": "6 bar"})
+    assert 'did you mean "p"' in str(e.value)
+    assert str(e.value) == cli_message("simulate", str(meter_out), "--set", "supply.pp=6 bar")
+    assert m.sets == []
     with pytest.raises(pneumo.NetlistError) as e:
         m.set(**{"supply.p": "6 m"})
     assert str(e.value) == cli_message("simulate", str(meter_out), "--set", "supply.p=6 m")

@@ -21,7 +21,7 @@ fn build(n: usize, structured: bool, staggered: bool) -> (solve::Model, solve::S
     let circuit = graph::build(&drives::drives(n, staggered)).expect("the drives circuit builds");
     let mut opts = solve::options_from(&circuit.simulation).expect("settings");
     opts.sample_interval = 0.0;
-    opts.structured_jacobian = structured;
+    opts.jacobian = if structured { solve::JacobianMethod::GroupedDifferences } else { solve::JacobianMethod::PlainDifferences };
     (solve::Model::new(circuit), opts)
 }
 

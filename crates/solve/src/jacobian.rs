@@ -224,9 +224,13 @@ impl Structure {
                     let s = &slots[r.block];
                     rows.extend(s.states.clone());
                     rows.extend(s.quad.clone());
-                    if s.states.is_empty() {
+                    // the balances: by what the block does with gas (the
+                    // exact Jacobian's rule), and by whether it has states
+                    // (the grouped differences')
+                    if s.states.is_empty() || s.role == blocks::block::GasRole::Boundary {
                         rows.extend([balance, balance + 1]);
-                    } else {
+                    }
+                    if !s.states.is_empty() || s.role == blocks::block::GasRole::Capacity {
                         rows.extend([balance + 2, balance + 3]);
                     }
                 }

@@ -1,7 +1,8 @@
 //! Flattening a wired circuit into one hybrid ODE and integrating it.
 //!
 //! Owns: the resource estimate of a run ([`budget`]), the flat state vector and right-hand side ([`model`]), algebraic
-//! junctions ([`junction`]), the Jacobian from the circuit's structure ([`jacobian`]), stick–slip and end-stop modes of mechanical
+//! junctions ([`junction`]), the Jacobian's structure ([`jacobian`]) and its exact values by the chain rule over the blocks'
+//! partial derivatives ([`exact`], with the per-block fallback [`block_differences`]), stick–slip and end-stop modes of mechanical
 //! nodes ([`mechanics`]), the rest state before t = 0 ([`rest`]), the event loop and result sampling ([`simulate`]),
 //! stepping a model from outside between communication points ([`stepper`]),
 //! the reading of simulation settings ([`settings`]), and the values of the netlist's interface inputs and outputs
@@ -9,7 +10,9 @@
 //! Never knows: concrete block types (blocks are reached through the
 //! `Block` trait only), files, terminals.
 
+pub mod block_differences;
 pub mod budget;
+pub mod exact;
 pub mod interface;
 pub mod jacobian;
 pub mod junction;
@@ -26,7 +29,7 @@ pub use model::{Model, ModelError};
 pub use rest::{RestError, RestReport, RestValue};
 pub use settings::options_from;
 pub use simulate::{
-    simulate, simulate_observed, Balance, Cancel, Checkpoint, CheckpointKind, EventLog, FinalState, MassState, SimOptions, SimResult,
-    SolveError, StrokeStatistic,
+    simulate, simulate_observed, Balance, Cancel, Checkpoint, CheckpointKind, EventLog, FinalState, JacobianMethod, MassState, SimOptions,
+    SimResult, SolveError, StrokeStatistic,
 };
 pub use stepper::Stepper;

@@ -92,6 +92,21 @@ pub fn acceleration(mode: Mode, f: &NodeForces, v: f64, mass: f64) -> f64 {
     }
 }
 
+/// Partial derivatives of [`acceleration`] with respect to (applied,
+/// sliding, breakaway, viscous, v): the mode is fixed between events, so the
+/// acceleration is smooth in each.
+pub fn acceleration_partials(mode: Mode, f: &NodeForces, v: f64, mass: f64) -> [f64; 5] {
+    match mode {
+        Mode::Sliding { dir } if dir * v < 0.0 => {
+            // (F − dir (F_sl − c|v|) − c v)/m, |v| = −dir v here
+            [1.0 / mass, -dir / mass, 0.0, (dir * v.abs() - v) / mass, (-dir * dir * f.viscous - f.viscous) / mass]
+        }
+        Mode::Sliding { dir } => [1.0 / mass, -dir / mass, 0.0, 0.0, 0.0],
+        Mode::SlidingViscous => [1.0 / mass, 0.0, 0.0, -v / mass, -f.viscous / mass],
+        Mode::Held { .. } => [0.0; 5],
+    }
+}
+
 /// Number of root functions per node.
 pub const N_ROOTS: usize = 2;
 
@@ -306,6 +321,25 @@ mod tests {
         roots(Mode::SlidingViscous, 0.2, 0.0, &f, &BODY, &mut g);
         assert_eq!(g, [-1.0, -1.0]);
         assert_eq!(transition(Mode::SlidingViscous, 0.2, 0.0, &f, &BODY, [true, true]), None);
+    }
+
+    #[test]
+    fn acceleration_partials_match_differences_in_every_sliding_mode() {
+        let f = NodeForces { applied: 30.0, sliding: 22.0, breakaway: 25.0, viscous: 50.0 };
+        for (mode, v) in [(Mode::SlidingViscous, 0.2), (Mode::Sliding { dir: 1.0 }, 0.2), (Mode::Sliding { dir: 1.0 }, -0.01)] {
+            let d = acceleration_partials(mode, &f, v, 2.0);
+            let h = 1e-6;
+            let at = |k: usize, s: f64| {
+                let mut x = [f.applied, f.sliding, f.breakaway, f.viscous, v];
+                x[k] += s;
+                let g = NodeForces { applied: x[0], sliding: x[1], breakaway: x[2], viscous: x[3] };
+                acceleration(mode, &g, x[4], 2.0)
+            };
+            for (k, dk) in d.iter().enumerate() {
+                let fd = (at(k, h) - at(k, -h)) / (2.0 * h);
+                assert!((fd - dk).abs() < 1e-6 * (1.0 + dk.abs()), "{mode:?} column {k}: {dk} vs {fd}");
+            }
+        }
     }
 
     #[test]

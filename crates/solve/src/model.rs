@@ -98,6 +98,19 @@ pub struct Model {
     record_scratch: (Vec<f64>, WarmStart),
     /// Current value of each interface input [SI] (see [`crate::interface`]).
     pub(crate) input_values: Vec<f64>,
+    /// The point (t, y) of the last evaluation that computed the
+    /// derivatives, and those derivatives, while the blocks' buffers still
+    /// hold that evaluation and no discrete state has changed since.
+    last: LastEvaluation,
+}
+
+/// See [`Model::last_evaluation_at`].
+#[derive(Debug, Clone, Default)]
+struct LastEvaluation {
+    valid: bool,
+    t: f64,
+    y: Vec<f64>,
+    dy: Vec<f64>,
 }
 
 /// Saved junction warm starts (see [`Model::save_warm_start_into`]).
@@ -236,6 +249,7 @@ impl Model {
             at_rest: false,
             record_scratch: Default::default(),
             input_values: circuit.interface.inputs.iter().map(|i| i.start).collect(),
+            last: LastEvaluation::default(),
             circuit,
         }
     }
@@ -260,6 +274,12 @@ impl Model {
         self.n_block_events + mechanics::N_ROOTS * self.circuit.mechanical_nodes.len()
     }
 
+    /// The block whose event function is root `i` (`i < n_block_events`).
+    pub(crate) fn event_owner(&self, i: usize) -> usize {
+        // slots are in block order and their event ranges ascend
+        self.slots.partition_point(|s| s.events.end <= i)
+    }
+
     /// Index of the first root function of mechanical node `node`.
     pub fn node_root_base(&self, node: usize) -> usize {
         self.n_block_events + node * mechanics::N_ROOTS
@@ -270,9 +290,8 @@ impl Model {
     /// "controller event 0" or "piston breakaway (retract)".
     pub fn root_name(&self, i: usize) -> String {
         if i < self.n_block_events {
-            if let Some((bi, slot)) = self.slots.iter().enumerate().find(|(_, s)| s.events.contains(&i)) {
-                return format!("{} event {}", self.circuit.instances[bi].id, i - slot.events.start);
-            }
+            let bi = self.event_owner(i);
+            return format!("{} event {}", self.circuit.instances[bi].id, i - self.slots[bi].events.start);
         }
         let k = i.saturating_sub(self.n_block_events);
         let (node, which) = (k / mechanics::N_ROOTS, k % mechanics::N_ROOTS);
@@ -372,6 +391,39 @@ impl Model {
     /// Evaluate everything at (t, y): node values, flows, forces, and if
     /// asked the derivatives `dy` and root functions `g`.
     pub fn eval(&mut self, t: f64, y: &[f64], dy: Option<&mut [f64]>, g: Option<&mut [f64]>) -> Result<(), ModelError> {
+        let mut last = std::mem::take(&mut self.last);
+        last.valid = false;
+        let result = self.eval_uncached(t, y, dy, g, &mut last);
+        last.valid &= result.is_ok();
+        self.last = last;
+        result
+    }
+
+    /// Whether the blocks' buffers hold an evaluation at exactly (t, y) with
+    /// the discrete state as it is now; if so its derivatives are copied to `dy`.
+    pub fn last_evaluation_at(&self, t: f64, y: &[f64], dy: &mut [f64]) -> bool {
+        let l = &self.last;
+        if l.valid && l.t == t && l.y == y && l.dy.len() == dy.len() {
+            dy.copy_from_slice(&l.dy);
+            true
+        } else {
+            false
+        }
+    }
+
+    /// Forget the last evaluation (a discrete state or a block changed).
+    pub(crate) fn forget_last_evaluation(&mut self) {
+        self.last.valid = false;
+    }
+
+    fn eval_uncached(
+        &mut self,
+        t: f64,
+        y: &[f64],
+        dy: Option<&mut [f64]>,
+        g: Option<&mut [f64]>,
+        last: &mut LastEvaluation,
+    ) -> Result<(), ModelError> {
         self.evaluations += 1;
         let gas = self.gas.clone();
         let gas: &dyn GasModel = &*gas;
@@ -560,6 +612,14 @@ impl Model {
                     return Err(ModelError::NonFinite { t, what: format!("derivative of state {}", self_state_name(circuit, slots, i)) });
                 }
             }
+            if !*at_rest {
+                last.valid = true;
+                last.t = t;
+                last.y.clear();
+                last.y.extend_from_slice(y);
+                last.dy.clear();
+                last.dy.extend_from_slice(dy);
+            }
         }
         // 8. root functions
         if let Some(g) = g {
@@ -632,11 +692,17 @@ impl Model {
         let (mut dy, mut warm) = std::mem::take(&mut self.record_scratch);
         dy.clear();
         dy.resize(self.dim(), 0.0);
-        self.save_warm_start_into(&mut warm);
-        let evaluations = self.evaluations;
-        let evaluated = self.eval(t, y, Some(&mut dy), None);
-        self.restore_warm_start_from(&warm);
-        self.evaluations = evaluations;
+        // the integrator has usually just evaluated f here (its step's end)
+        let evaluated = if self.last_evaluation_at(t, y, &mut dy) {
+            Ok(())
+        } else {
+            self.save_warm_start_into(&mut warm);
+            let evaluations = self.evaluations;
+            let evaluated = self.eval(t, y, Some(&mut dy), None);
+            self.restore_warm_start_from(&warm);
+            self.evaluations = evaluations;
+            evaluated
+        };
         let result = evaluated.and_then(|()| self.record_outputs(t, y, &dy, row));
         self.record_scratch = (dy, warm);
         result

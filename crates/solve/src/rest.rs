@@ -532,13 +532,22 @@ fn steady_flow(model: &mut Model, dividers: &[usize], report: &mut RestReport) -
 }
 
 fn set_positions(model: &mut Model, report: &mut RestReport) -> Result<(), RestError> {
-    for node in 0..model.circuit.mechanical_nodes.len() {
+    // The forces on a node at rest depend on that node's position only (its
+    // chambers are filled to their rest pressures at that position), so every
+    // free inertia is decided from one evaluation and checked with a second:
+    // two evaluations of the model, not two per node.
+    let free: Vec<usize> = (0..model.circuit.mechanical_nodes.len())
+        .filter(|&node| model.circuit.instances[model.circuit.mechanical_nodes[node].inertia.block].block.free_initial().position)
+        .collect();
+    if free.is_empty() {
+        return Ok(());
+    }
+    let y = model.initial_state();
+    model.eval(0.0, &y, None, None)?;
+    // (node, force before, position before, the stop it goes to, which stop)
+    let mut moved = Vec::new();
+    for &node in &free {
         let block = model.circuit.mechanical_nodes[node].inertia.block;
-        if !model.circuit.instances[block].block.free_initial().position {
-            continue;
-        }
-        let y = model.initial_state();
-        model.eval(0.0, &y, None, None)?;
         let f = model.node_forces[node];
         let x = model.node_mech[node].x;
         if f.applied.abs() <= f.breakaway {
@@ -553,8 +562,16 @@ fn set_positions(model: &mut Model, report: &mut RestReport) -> Result<(), RestE
         };
         let (at, which) = if f.applied > 0.0 { (stops.upper, "upper") } else { (stops.lower, "lower") };
         model.circuit.instances[block].block.set_initial_position(at);
-        let y = model.initial_state();
-        model.eval(0.0, &y, None, None)?;
+        moved.push((node, f, x, at, which));
+    }
+    if moved.is_empty() {
+        return Ok(());
+    }
+    let y = model.initial_state();
+    model.eval(0.0, &y, None, None)?;
+    for (node, f, x, at, which) in moved {
+        let block = model.circuit.mechanical_nodes[node].inertia.block;
+        let id = model.circuit.instances[block].id.clone();
         let g = model.node_forces[node];
         if g.applied.signum() != f.applied.signum() && g.applied.abs() > g.breakaway {
             model.circuit.instances[block].block.set_initial_position(x);

@@ -11,6 +11,7 @@
 //! condition that no handling clears is an error naming the root). Time
 //! events due at the instant of a root are handled with it.
 
+use crate::exact::Exact;
 use crate::jacobian::{Structure, Workspace};
 use crate::mechanics::{self, Mode};
 use crate::model::{Model, ModelError, N_QUADRATURE};
@@ -69,10 +70,10 @@ pub struct SimOptions {
     pub max_events: usize,
     /// Integration method.
     pub method: ode::Method,
-    /// Use the model's Jacobian structure where it pays (see
-    /// [`crate::jacobian`]); `false` forces plain finite differences and a
-    /// dense LU (for comparisons).
-    pub structured_jacobian: bool,
+    /// How the Jacobian is formed: grouped differences (the default, the
+    /// fastest measured, see docs/performance.md), exact, or plain
+    /// differences (for comparisons).
+    pub jacobian: JacobianMethod,
     /// Stop early when this flag is raised (see [`Cancel`]).
     pub cancel: Option<Cancel>,
 }
@@ -89,8 +90,34 @@ impl Default for SimOptions {
             max_step: 0.05,
             max_events: 100_000,
             method: ode::Method::default(),
-            structured_jacobian: true,
+            jacobian: JacobianMethod::GroupedDifferences,
             cancel: None,
+        }
+    }
+}
+
+/// How a run forms the Jacobian ∂f/∂y.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum JacobianMethod {
+    /// Exact, by the chain rule over the blocks' partial derivatives
+    /// ([`crate::exact`]); a block without them is differenced alone.
+    Exact,
+    /// Differences of the whole model with the columns grouped by the
+    /// circuit's structure ([`crate::jacobian`]) where that pays (the
+    /// default: fewer evaluations do not yet make exact faster).
+    #[default]
+    GroupedDifferences,
+    /// Plain forward differences, one model evaluation per state, dense LU.
+    PlainDifferences,
+}
+
+impl JacobianMethod {
+    /// How the summary names it.
+    pub fn name(self) -> &'static str {
+        match self {
+            JacobianMethod::Exact => "exact",
+            JacobianMethod::GroupedDifferences => "grouped differences",
+            JacobianMethod::PlainDifferences => "differences",
         }
     }
 }
@@ -237,8 +264,13 @@ pub struct SimResult {
     /// structure, dense LU) or "sparse" (structured Jacobian, sparse LU).
     pub linear_algebra: &'static str,
     /// Model evaluations per Jacobian (one per column for plain differences,
-    /// one per column group plus one with the structure).
+    /// one per column group plus one with the structure, one when exact).
     pub evaluations_per_jacobian: usize,
+    /// How the Jacobian was formed: "exact", "grouped differences" or "differences".
+    pub jacobian: &'static str,
+    /// Blocks the exact Jacobian differentiated by differences (they give no
+    /// partial derivatives for some phase), by id.
+    pub finite_difference_blocks: Vec<String>,
     /// Initial values chosen by the rest state (`"initial": "rest"`), if any.
     pub rest: crate::rest::RestReport,
     /// Where the moving masses and chamber pressures ended.
@@ -320,9 +352,8 @@ pub enum SolveError {
 pub(crate) struct System<'a> {
     pub(crate) model: &'a mut Model,
     pub(crate) error: Option<ModelError>,
-    /// The Jacobian's structure, when it pays (see [`crate::jacobian`]).
-    pub(crate) structure: Option<&'a Structure>,
-    pub(crate) jacobian_work: &'a mut Workspace,
+    /// How the Jacobian is formed.
+    pub(crate) jacobian: &'a mut Jacobian,
     pub(crate) cancel: Option<&'a Cancel>,
 }
 
@@ -387,11 +418,22 @@ impl OdeSystem for System<'_> {
         out.fill(RootDirection::Rising);
     }
     fn jacobian_sparsity(&self) -> Option<ode::Sparsity> {
-        self.structure.map(|s| s.pattern().clone())
+        match &*self.jacobian {
+            Jacobian::Exact(e) => Some(e.pattern().clone()),
+            Jacobian::Grouped(g) => Some(g.0.pattern().clone()),
+            Jacobian::Plain => None,
+        }
     }
     fn jacobian(&mut self, t: f64, y: &[f64], _f0: &[f64], deltas: &[f64], values: &mut [f64]) -> Result<bool, RhsError> {
-        let Some(structure) = self.structure else { return Ok(false) };
-        match structure.fill(self.model, self.jacobian_work, t, y, deltas, values) {
+        let filled = match &mut *self.jacobian {
+            Jacobian::Exact(e) => e.fill(self.model, t, y, values),
+            Jacobian::Grouped(g) => {
+                let (s, work) = &mut **g;
+                s.fill(self.model, work, t, y, deltas, values)
+            }
+            Jacobian::Plain => return Ok(false),
+        };
+        match filled {
             Ok(()) => {
                 self.error = None;
                 Ok(true)
@@ -406,6 +448,42 @@ impl OdeSystem for System<'_> {
                 self.error = Some(e);
                 Err(RhsError(msg))
             }
+        }
+    }
+}
+
+/// How a run forms its Jacobian (see [`JacobianMethod`]).
+#[derive(Debug)]
+pub(crate) enum Jacobian {
+    Exact(Box<Exact>),
+    Grouped(Box<(Structure, Workspace)>),
+    Plain,
+}
+
+impl Jacobian {
+    /// The best of `method` this model allows: exact and grouped differences
+    /// need the circuit's structure (a block with more than 64 ports of one
+    /// kind has none), grouped differences are used only where they pay.
+    pub(crate) fn for_model(model: &Model, method: JacobianMethod) -> Jacobian {
+        match method {
+            JacobianMethod::Exact => match Structure::new(model) {
+                Some(s) => Jacobian::Exact(Box::new(Exact::new(model, s.pattern().clone()))),
+                None => Jacobian::Plain,
+            },
+            JacobianMethod::GroupedDifferences => match worthwhile_structure(model) {
+                Some(s) => Jacobian::Grouped(Box::new((s, Workspace::default()))),
+                None => Jacobian::Plain,
+            },
+            JacobianMethod::PlainDifferences => Jacobian::Plain,
+        }
+    }
+
+    /// The method actually in use.
+    pub(crate) fn method(&self) -> JacobianMethod {
+        match self {
+            Jacobian::Exact(_) => JacobianMethod::Exact,
+            Jacobian::Grouped(..) => JacobianMethod::GroupedDifferences,
+            Jacobian::Plain => JacobianMethod::PlainDifferences,
         }
     }
 }
@@ -461,8 +539,7 @@ fn run(model: &mut Model, opts: &SimOptions, mut observer: Option<&mut dyn FnMut
     let mut y = model.initial_state();
     let n = model.dim();
     let mut integrator = integrator_for(model, opts, &y)?;
-    let structure = if opts.structured_jacobian { worthwhile_structure(model) } else { None };
-    let mut jacobian_work = Workspace::default();
+    let mut jacobian = Jacobian::for_model(model, opts.jacobian);
     let mut t = 0.0;
     let mut result = SimResult {
         columns: model.output_names(),
@@ -476,11 +553,17 @@ fn run(model: &mut Model, opts: &SimOptions, mut observer: Option<&mut dyn FnMut
         stats: Default::default(),
         rhs_evaluations: 0,
         linear_algebra: "dense",
-        evaluations_per_jacobian: structure.as_ref().map_or_else(
-            // one per state column, and one for ∂f/∂t unless no block depends on time
-            || model.n_states + usize::from(model.circuit.instances.iter().any(|i| i.block.time_dependent())),
-            |s| s.evaluations_per_jacobian(),
-        ),
+        evaluations_per_jacobian: {
+            // ∂f/∂t costs one more unless no block depends on time
+            let dt = usize::from(model.circuit.instances.iter().any(|i| i.block.time_dependent()));
+            match &jacobian {
+                Jacobian::Exact(_) => 1 + dt,
+                Jacobian::Grouped(g) => g.0.evaluations_per_jacobian() + dt,
+                Jacobian::Plain => model.n_states + dt,
+            }
+        },
+        jacobian: jacobian.method().name(),
+        finite_difference_blocks: Vec::new(),
         rest,
         final_state: FinalState::default(),
         stroke_statistics: Vec::new(),
@@ -520,13 +603,7 @@ fn run(model: &mut Model, opts: &SimOptions, mut observer: Option<&mut dyn FnMut
         let observing = observer.is_some();
         step_ends.clear();
         let advance = {
-            let mut sys = System {
-                model,
-                error: None,
-                structure: structure.as_ref(),
-                jacobian_work: &mut jacobian_work,
-                cancel: opts.cancel.as_ref(),
-            };
+            let mut sys = System { model, error: None, jacobian: &mut jacobian, cancel: opts.cancel.as_ref() };
             let interval = opts.sample_interval;
             let record_steps = opts.record_steps && interval <= 0.0;
             let mut dense_observer = |d: &dyn Dense| {
@@ -640,6 +717,9 @@ fn run(model: &mut Model, opts: &SimOptions, mut observer: Option<&mut dyn FnMut
     result.stats = integrator.stats();
     result.linear_algebra = integrator.linear_algebra();
     result.rhs_evaluations = model.evaluations;
+    if let Jacobian::Exact(e) = &jacobian {
+        result.finite_difference_blocks = e.fallback_blocks(model);
+    }
     Ok(result)
 }
 
@@ -809,29 +889,34 @@ pub(crate) fn resolve_events(
     due: &[usize],
     result: &mut SimResult,
 ) -> Result<(), SolveError> {
+    // The work per instant is a few evaluations of the model and one look at
+    // each fired root: handling k coincident events never loops over all
+    // roots once per event (which made N drives switching together cost N²).
+    model.forget_last_evaluation(); // blocks and modes change here
     let mut fired: Vec<usize> = crossings.to_vec();
+    fired.sort_unstable();
+    fired.dedup();
+    let n_block_events = model.n_block_events;
     let mut g = vec![0.0; model.n_roots()];
+    let mut node_fired = vec![[false; mechanics::N_ROOTS]; model.circuit.mechanical_nodes.len()];
     for round in 0..MAX_ROUNDS {
         model.eval(t, y, None, None)?;
-        let event_ranges: Vec<_> = model.slots.iter().map(|s| s.events.clone()).collect();
-        for (bi, range) in event_ranges.into_iter().enumerate() {
-            for (k, idx) in range.enumerate() {
-                if fired.contains(&idx) {
-                    handle_block_event(model, bi, EventKind::Crossing(k), t, y, result)?;
-                }
-            }
+        // block events in block order (the order of their root indices)
+        for &idx in fired.iter().take_while(|&&i| i < n_block_events) {
+            let bi = model.event_owner(idx);
+            let k = idx - model.slots[bi].events.start;
+            handle_block_event(model, bi, EventKind::Crossing(k), t, y, result)?;
         }
         if round == 0 {
             for &bi in due {
                 handle_block_event(model, bi, EventKind::Time, t, y, result)?;
             }
         }
-        let node_fired: Vec<[bool; mechanics::N_ROOTS]> = (0..model.circuit.mechanical_nodes.len())
-            .map(|node| {
-                let base = model.node_root_base(node);
-                std::array::from_fn(|k| fired.contains(&(base + k)))
-            })
-            .collect();
+        node_fired.iter_mut().for_each(|f| *f = [false; mechanics::N_ROOTS]);
+        for &idx in fired.iter().filter(|&&i| i >= n_block_events) {
+            let k = idx - n_block_events;
+            node_fired[k / mechanics::N_ROOTS][k % mechanics::N_ROOTS] = true;
+        }
         settle(model, t, y, &node_fired, &mut result.events)?;
         model.eval(t, y, None, Some(&mut g))?;
         fired = (0..g.len()).filter(|&i| g[i] > 0.0).collect();
@@ -855,6 +940,7 @@ fn handle_block_event(model: &mut Model, bi: usize, kind: EventKind, t: f64, y: 
         mechanical: &slot.mech,
         signals: &slot.sig,
     };
+    model.forget_last_evaluation();
     let inst = &mut model.circuit.instances[bi];
     let outcome = inst.block.on_event(kind, &ctx);
     if let Some(note) = outcome.note {

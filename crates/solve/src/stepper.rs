@@ -16,20 +16,17 @@
 //! (model, discrete states of every block, integrator history), which an FMU
 //! hands out as its `fmi2FMUstate`.
 
-use crate::jacobian::{Structure, Workspace};
 use crate::model::Model;
-use crate::simulate::{self, EventLog, SimOptions, SimResult, SolveError, System};
+use crate::simulate::{self, EventLog, Jacobian, SimOptions, SimResult, SolveError, System};
 use blocks::block::CycleRecord;
 use ode::{Advance, Dense, Integrator, Rosenbrock};
-use std::sync::Arc;
 
 /// A model being stepped from outside (see the module documentation).
 #[derive(Debug)]
 pub struct Stepper {
     model: Model,
     integrator: Rosenbrock,
-    structure: Option<Arc<Structure>>,
-    work: Workspace,
+    jacobian: Jacobian,
     t: f64,
     y: Vec<f64>,
     /// Events and cycles since they were last taken.
@@ -46,8 +43,8 @@ impl Clone for Stepper {
         Stepper {
             model: self.model.clone(),
             integrator: self.integrator.clone(),
-            structure: self.structure.clone(),
-            work: Workspace::default(), // scratch buffers only
+            // the Jacobian holds scratch buffers and the model's structure only
+            jacobian: Jacobian::for_model(&self.model, self.jacobian.method()),
             t: self.t,
             y: self.y.clone(),
             log: self.log.clone(),
@@ -71,23 +68,12 @@ impl Stepper {
         };
         let mut y = model.initial_state();
         let integrator = simulate::integrator_for(&model, opts, &y)?;
-        let structure = if opts.structured_jacobian { simulate::worthwhile_structure(&model).map(Arc::new) } else { None };
+        let jacobian = Jacobian::for_model(&model, opts.jacobian);
         model.velocity_band = opts.atol;
         let mut log = SimResult::default();
         simulate::initial_modes(&mut model, 0.0, &y)?;
         simulate::resolve_events(&mut model, 0.0, &mut y, &[], &[], &mut log)?;
-        Ok(Stepper {
-            model,
-            integrator,
-            structure,
-            work: Workspace::default(),
-            t: 0.0,
-            y,
-            log,
-            max_events: opts.max_events,
-            restart: false,
-            rest,
-        })
+        Ok(Stepper { model, integrator, jacobian, t: 0.0, y, log, max_events: opts.max_events, restart: false, rest })
     }
 
     /// Current time [s].
@@ -147,13 +133,7 @@ impl Stepper {
                 self.model.circuit.instances.iter().filter_map(|i| i.block.next_time_event(self.t)).fold(f64::INFINITY, f64::min);
             let t_stop = t_target.min(t_time_event);
             let advance = {
-                let mut sys = System {
-                    model: &mut self.model,
-                    error: None,
-                    structure: self.structure.as_deref(),
-                    jacobian_work: &mut self.work,
-                    cancel: None,
-                };
+                let mut sys = System { model: &mut self.model, error: None, jacobian: &mut self.jacobian, cancel: None };
                 match self.integrator.advance(&mut sys, &mut self.t, &mut self.y, t_stop, &mut |_: &dyn Dense| {}) {
                     Ok(a) => a,
                     Err(e) => return Err(simulate::advance_error(e, sys.error.take(), sys.model, false, self.t)),

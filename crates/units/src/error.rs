@@ -36,7 +36,8 @@ pub enum UnitError {
     /// A malformed unit expression (parentheses, operators, exponents).
     #[error("cannot read unit \"{}\": {}", crate::show::text(.expression), crate::show::text(.reason))]
     Syntax { expression: String, reason: String },
-    /// The number or its SI value is infinite or NaN.
-    #[error("non-finite value")]
-    NonFinite,
+    /// The number or its SI value is infinite or NaN (a run of digits beyond
+    /// 1.8e308, "1e300 GPa"); the input is quoted, escaped and shortened.
+    #[error("\"{}\" is not a finite number (beyond 1.8e308 in SI)", crate::show::brief(.text))]
+    NonFinite { text: String },
 }

@@ -105,7 +105,7 @@ pub fn parse_quantity(text: &str, expected: Dimension) -> Result<f64, UnitError>
     }
     let value: f64 = number.parse().map_err(|_| bad_number())?;
     if !value.is_finite() {
-        return Err(UnitError::NonFinite);
+        return Err(UnitError::NonFinite { text: text.to_string() });
     }
     let unit_text = rest.trim_start();
     if unit_text.is_empty() {
@@ -132,7 +132,7 @@ pub fn parse_quantity(text: &str, expected: Dimension) -> Result<f64, UnitError>
     if si.is_finite() {
         Ok(si)
     } else {
-        Err(UnitError::NonFinite)
+        Err(UnitError::NonFinite { text: text.to_string() })
     }
 }
 

@@ -94,6 +94,17 @@ pub fn text(s: &str) -> String {
     out
 }
 
+/// Text from the input quoted briefly, as [`text`] does but keeping only
+/// the first 20 characters of anything longer than 24 (a number spelled out
+/// in thousands of digits is named by its start and length, not re-printed).
+pub fn brief(s: &str) -> String {
+    if s.chars().nth(24).is_none() {
+        return line(s);
+    }
+    let kept: String = s.chars().take(20).collect();
+    format!("{}… ({} characters)", line(&kept), s.chars().count())
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

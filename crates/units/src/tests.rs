@@ -255,9 +255,17 @@ fn bad_numbers_and_empty() {
     for text in ["bar", "1.5.3 bar", "1,5 bar", "5-3 bar", "- 3 bar", ". bar", "inf", "NaN", "e5 bar"] {
         assert!(matches!(err(text, dim::PRESSURE), UnitError::BadNumber { .. }), "{text}");
     }
-    assert_eq!(err("1e400", dim::PRESSURE), UnitError::NonFinite);
-    assert_eq!(err("1e300 GPa", dim::PRESSURE), UnitError::NonFinite);
-    assert_eq!(err("1e400", dim::PRESSURE).to_string(), "non-finite value");
+    assert_eq!(err("1e400", dim::PRESSURE), UnitError::NonFinite { text: "1e400".into() });
+    assert_eq!(err("1e300 GPa", dim::PRESSURE), UnitError::NonFinite { text: "1e300 GPa".into() });
+    // a 100 kB run of digits is refused with the input quoted, shortened
+    let digits = "1".repeat(100_000);
+    let message = err(&digits, dim::PRESSURE).to_string();
+    assert!(
+        message.len() < 300 && message.contains("1111") && message.contains("100000 characters") && !message.contains(&"1".repeat(30)),
+        "{message}"
+    );
+    assert!(message.contains("not a finite number"), "{message}");
+    assert_eq!(err("1e400", dim::PRESSURE).to_string(), "\"1e400\" is not a finite number (beyond 1.8e308 in SI)");
 }
 
 #[test]

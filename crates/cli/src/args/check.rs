@@ -14,6 +14,8 @@ pub struct CheckArgs {
     /// Write the circuit as a Graphviz file.
     #[arg(long, value_name = "FILE.dot")]
     pub dot: Option<PathBuf>,
+    #[command(flatten)]
+    pub limits: super::Limits,
 }
 
 pub fn run(a: CheckArgs) -> Result<(), AppError> {

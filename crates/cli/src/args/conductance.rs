@@ -49,6 +49,15 @@ pub struct ConductanceArgs {
     /// Print the report as JSON.
     #[arg(long)]
     pub json: bool,
+    /// Column of the tank pressure [default: p]; e.g. tank.p to read what
+    /// `pneumo simulate --out` wrote.
+    #[arg(long = "p-column", value_name = "COLUMN")]
+    pub p_column: Option<String>,
+    /// Column of the gas temperature [default: T, when there is one]; e.g. tank.T.
+    #[arg(long = "T-column", value_name = "COLUMN")]
+    pub t_column: Option<String>,
+    #[command(flatten)]
+    pub limits: super::MemoryLimit,
 }
 
 pub fn run(a: ConductanceArgs) -> Result<(), AppError> {
@@ -67,6 +76,8 @@ pub fn run(a: ConductanceArgs) -> Result<(), AppError> {
         pressure_only: a.pressure_only,
         b_window: a.b_window,
         json: a.json,
+        p_column: a.p_column,
+        t_column: a.t_column,
     };
     let report = conductance(&o)?;
     for w in &report.warnings {

@@ -7,24 +7,23 @@ use std::path::PathBuf;
 #[derive(clap::Args, Debug)]
 pub struct DiscrepancyArgs {
     /// Model netlist (JSON).
-    pub input: Option<PathBuf>,
+    #[arg(value_name = "MODEL.json")]
+    pub input: PathBuf,
     /// Experiments manifest (JSON): data files, operating points, column mapping.
-    #[arg(long, value_name = "EXPERIMENTS.json")]
-    pub experiments: Option<PathBuf>,
+    #[arg(long, value_name = "EXPERIMENTS.json", required = true)]
+    pub experiments: PathBuf,
     /// Write the augmented netlist, figures and report.md into this directory.
     #[arg(long, value_name = "DIR")]
     pub report: Option<PathBuf>,
     /// Print the summary as JSON.
     #[arg(long)]
     pub json: bool,
+    #[command(flatten)]
+    pub limits: super::Limits,
 }
 
 pub fn run(a: DiscrepancyArgs) -> Result<(), AppError> {
-    let model = a
-        .input
-        .ok_or_else(|| AppError::Usage("give the model netlist: pneumo discrepancy MODEL.json --experiments EXPERIMENTS.json".into()))?;
-    let experiments = a.experiments.ok_or_else(|| AppError::Usage("give --experiments EXPERIMENTS.json".into()))?;
-    let found = discrepancy(&DiscrepancyOptions { model, experiments, report: a.report })?;
+    let found = discrepancy(&DiscrepancyOptions { model: a.input, experiments: a.experiments, report: a.report })?;
     if a.json {
         println!("{}", found.summary_json);
     } else {

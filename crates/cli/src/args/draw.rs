@@ -17,6 +17,8 @@ pub struct DrawArgs {
     /// Pixels per drawing unit of a PNG.
     #[arg(long, default_value_t = 2.0)]
     pub scale: f32,
+    #[command(flatten)]
+    pub limits: super::Limits,
 }
 
 pub fn run(a: DrawArgs) -> Result<(), AppError> {

@@ -10,6 +10,8 @@ pub struct FmuArgs {
     /// The FMU to write.
     #[arg(long, value_name = "FILE.fmu")]
     pub out: PathBuf,
+    #[command(flatten)]
+    pub limits: super::Limits,
 }
 
 pub fn run(a: FmuArgs) -> Result<(), AppError> {

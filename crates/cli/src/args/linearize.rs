@@ -23,6 +23,8 @@ pub struct LinearizeArgs {
     /// Keep the states that reach no output.
     #[arg(long)]
     pub all_states: bool,
+    #[command(flatten)]
+    pub limits: super::Limits,
 }
 
 pub fn run(a: LinearizeArgs) -> Result<(), AppError> {

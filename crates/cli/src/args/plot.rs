@@ -38,6 +38,8 @@ pub struct PlotArgs {
     /// (e.g. 0.5,2 for a polytropic index that runs off to infinity when ρ̇ = 0).
     #[arg(long = "y-range", value_name = "LO,HI", value_delimiter = ',', allow_negative_numbers = true)]
     pub y_range: Vec<f64>,
+    #[command(flatten)]
+    pub limits: super::MemoryLimit,
 }
 
 pub fn run(a: PlotArgs) -> Result<(), AppError> {

@@ -20,6 +20,8 @@ pub struct ReportArgs {
     /// The page to write: one self-contained HTML file.
     #[arg(long = "out", short = 'o', value_name = "FILE.html")]
     pub out: PathBuf,
+    #[command(flatten)]
+    pub limits: super::Limits,
 }
 
 /// Run, write the page, print the cycle times; a run that did not complete

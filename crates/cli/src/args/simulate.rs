@@ -32,6 +32,8 @@ pub struct SimulateArgs {
     /// Signals to write (default: the netlist's outputs, or all).
     #[arg(long = "signals", value_delimiter = ',')]
     pub signals: Vec<String>,
+    #[command(flatten)]
+    pub limits: super::Limits,
 }
 
 /// Run, print the cycle times and balances; a run that did not complete its

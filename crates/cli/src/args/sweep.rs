@@ -34,6 +34,8 @@ pub struct SweepArgs {
     /// Most cases this process runs (the whole sweep, or its shard); raise it, or split the sweep with --shard.
     #[arg(long = "max-cases", value_name = "N", default_value_t = DEFAULT_MAX_CASES, allow_negative_numbers = true)]
     pub max_cases: usize,
+    #[command(flatten)]
+    pub limits: super::Limits,
 }
 
 #[derive(clap::Args, Debug)]
@@ -47,6 +49,8 @@ pub struct MergeArgs {
     /// Most cases the merged sweep may hold.
     #[arg(long = "max-cases", value_name = "N", default_value_t = DEFAULT_MAX_CASES, allow_negative_numbers = true)]
     pub max_cases: usize,
+    #[command(flatten)]
+    pub limits: super::MemoryLimit,
 }
 
 pub fn run(a: SweepArgs) -> Result<(), AppError> {

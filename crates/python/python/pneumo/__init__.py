@@ -26,6 +26,8 @@ from ._errors import (
     UsageError,
 )
 from ._discrepancy import DiscrepancyResult, discrepancy
+from ._fmu import export_fmu
+from ._linearize import Linearization
 from ._misc import blocks, schema
 from ._model import Model, Result, load, loads
 from ._pneumo import __version__
@@ -41,6 +43,8 @@ __all__ = [
     "read_sweep",
     "discrepancy",
     "DiscrepancyResult",
+    "Linearization",
+    "export_fmu",
     "blocks",
     "schema",
     "main",

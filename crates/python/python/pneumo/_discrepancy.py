@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import math
 import os
 from typing import TYPE_CHECKING, Any, Dict, List, Optional, Union
 
@@ -18,24 +19,43 @@ __all__ = ["discrepancy", "DiscrepancyResult"]
 PathLike = Union[str, "os.PathLike[str]"]
 
 
+# units whose zero is not SI's zero: an interval cannot be scaled into them
+_OFFSET_UNITS = ("degC", "degF", "barg", "psig")
+
+
+def _unit_scale(e: Dict[str, Any]) -> Optional[float]:
+    """Factor from SI to the unit ``shown`` is in (L/min/bar, mm, ...), so
+    that an interval reads beside its value (SI intervals of a conductance
+    print as 0.0 next to a value in L/min/bar); None when it cannot be told."""
+    value, shown = e.get("value"), e.get("shown")
+    if e.get("unit") in _OFFSET_UNITS or not value or shown is None:
+        return None
+    scale = shown / value
+    return scale if math.isfinite(scale) and scale > 0 else None
+
+
 def _estimates(params: List[Dict[str, Any]]) -> "pd.DataFrame":
     import pandas as pd
 
     rows = []
     for e in params:
         ci = e.get("ci95") or (None, None)
-        ci_unit = e.get("shown_ci95") or (None, None)
+        scale = _unit_scale(e)
+        in_unit = lambda x: None if x is None or scale is None else x * scale  # noqa: E731
+        # the interval as the report shows it (kept inside the bounds), in the value's unit
+        ci_unit = e.get("shown_ci95") or (in_unit(ci[0]), in_unit(ci[1]))
         rows.append(
             {
                 "name": e["name"],
                 "value": e["value"],
                 "unit": e["unit"],
+                "value_in_unit": e.get("shown"),
+                "std_error_in_unit": in_unit(e.get("std_error")),
+                "ci95_low_in_unit": ci_unit[0],
+                "ci95_high_in_unit": ci_unit[1],
                 "std_error": e.get("std_error"),
                 "ci95_low": ci[0],
                 "ci95_high": ci[1],
-                "value_in_unit": e.get("shown"),
-                "ci95_low_in_unit": ci_unit[0],
-                "ci95_high_in_unit": ci_unit[1],
                 "at_bound": bool(e.get("at_bound")),
             }
         )
@@ -43,12 +63,13 @@ def _estimates(params: List[Dict[str, Any]]) -> "pd.DataFrame":
         "name",
         "value",
         "unit",
+        "value_in_unit",
+        "std_error_in_unit",
+        "ci95_low_in_unit",
+        "ci95_high_in_unit",
         "std_error",
         "ci95_low",
         "ci95_high",
-        "value_in_unit",
-        "ci95_low_in_unit",
-        "ci95_high_in_unit",
         "at_bound",
     ]
     return pd.DataFrame(rows, columns=columns).set_index("name")

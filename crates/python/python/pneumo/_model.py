@@ -16,6 +16,8 @@ from ._values import assignments, merge_values
 if TYPE_CHECKING:  # pragma: no cover
     import pandas as pd
 
+    from ._linearize import Linearization
+
 __all__ = ["Model", "Result", "load", "loads"]
 
 PathLike = Union[str, "os.PathLike[str]"]
@@ -181,6 +183,23 @@ class Model:
         if raw.incomplete is not None:
             warnings.warn(raw.incomplete, IncompleteRunWarning, stacklevel=2)
         return Result(raw)
+
+    def linearize(self, at: Any = "rest", keep_all_states: bool = False) -> "Linearization":
+        """The linear model about an operating point, as ``pneumo linearize``.
+
+        ``at``: ``"rest"`` (the netlist's start state), a time of a run of
+        the netlist (``"t=1.2 s"``, or a number of seconds). Inputs and
+        outputs are the netlist's ``interface`` section. Returns a
+        :class:`pneumo.Linearization` (numpy A, B, C, D with named states,
+        inputs and outputs in SI; eigenvalues, natural frequencies, damping
+        ratios; ``.to_control()``). ``keep_all_states`` keeps the states no
+        output sees. A wrong ``at`` raises :class:`pneumo.UsageError` (a
+        ``ValueError``), ``TypeError`` for a value of the wrong type; a
+        netlist without an interface :class:`pneumo.NetlistError`.
+        """
+        from ._linearize import Linearization, operating_point_text
+
+        return Linearization(self._netlist.linearize(operating_point_text(at), bool(keep_all_states)))
 
     # -- Python protocol --------------------------------------------------
 

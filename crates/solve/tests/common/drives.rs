@@ -51,7 +51,10 @@ pub fn drives(n: usize, staggered: bool) -> graph::FlatNetlist {
         "name": format!("drives_{n}"), "components": components, "connections": connections,
         "simulation": {"t_end": "3 s", "rtol": 1e-4, "atol": 1e-4, "max_step": "250 ms", "initial": "rest"}
     });
-    let dir = std::env::temp_dir().join(format!("pneumo-jacobian-{}-{n}", std::process::id()));
+    // one directory per call: tests in parallel build the same circuit
+    static CALLS: std::sync::atomic::AtomicUsize = std::sync::atomic::AtomicUsize::new(0);
+    let call = CALLS.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+    let dir = std::env::temp_dir().join(format!("pneumo-jacobian-{}-{n}-{call}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
     let file = dir.join("drives.json");
     std::fs::write(&file, serde_json::to_string_pretty(&net).unwrap()).unwrap();

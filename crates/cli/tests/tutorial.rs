@@ -1,0 +1,232 @@
+//! docs/tutorial.md cannot go stale: every ```sh block is run, in order, in
+//! an empty folder that holds only a link to the repository's `models/`, with
+//! the `pneumo` this test was built with first on the PATH; each must exit 0.
+//! A ```text block right after a ```sh block is that block's standard
+//! output: lines compared one by one, text exactly, numbers to the digits
+//! shown within 0.5 % (a solver change may move the last digit), and a line
+//! ending in `…` only up to the `…` (`…` alone: any line). Every `scratch/…`
+//! file the commands name must exist afterwards. Blocks marked ```sh slow
+//! (the discrepancy step, minutes) run only in the ignored test.
+
+mod common;
+
+use common::{repo, Scratch};
+use std::path::Path;
+use std::process::{Command, Stdio};
+use std::time::{Duration, Instant};
+
+/// One fenced block of the page: its info string and its text.
+struct Block {
+    info: String,
+    text: String,
+}
+
+fn blocks(page: &str) -> Vec<Block> {
+    let mut out = Vec::new();
+    let mut current: Option<Block> = None;
+    for line in page.lines() {
+        match (&mut current, line.trim_start().strip_prefix("```")) {
+            (None, Some(info)) => current = Some(Block { info: info.trim().to_string(), text: String::new() }),
+            (Some(_), Some(_)) => out.extend(current.take()),
+            (Some(b), None) => {
+                b.text.push_str(line);
+                b.text.push('\n');
+            }
+            (None, None) => {
+                // prose between blocks separates a command from a later output block
+                if !line.trim().is_empty() {
+                    out.push(Block { info: "prose".into(), text: String::new() });
+                }
+            }
+        }
+    }
+    out
+}
+
+/// A line's pieces: text runs and numbers.
+#[derive(Debug, PartialEq)]
+enum Piece {
+    Text(String),
+    Number(f64, String),
+}
+
+fn pieces(line: &str) -> Vec<Piece> {
+    let mut out = Vec::new();
+    let mut text = String::new();
+    let chars: Vec<char> = line.chars().collect();
+    let mut i = 0;
+    while i < chars.len() {
+        let starts_number =
+            chars[i].is_ascii_digit() && (i == 0 || !(chars[i - 1].is_alphanumeric() || chars[i - 1] == '_' || chars[i - 1] == '.'));
+        if starts_number {
+            let mut j = i;
+            while j < chars.len()
+                && (chars[j].is_ascii_digit() || chars[j] == '.' || chars[j] == 'e' || (chars[j] == '-' && chars[j - 1] == 'e'))
+            {
+                j += 1;
+            }
+            let word: String = chars[i..j].iter().collect();
+            let word = word.trim_end_matches('.').to_string();
+            if let Ok(x) = word.parse::<f64>() {
+                if text.ends_with('-') {
+                    text.pop();
+                    out.push(Piece::Text(std::mem::take(&mut text)));
+                    out.push(Piece::Number(-x, format!("-{word}")));
+                } else {
+                    out.push(Piece::Text(std::mem::take(&mut text)));
+                    out.push(Piece::Number(x, word.clone()));
+                }
+                i += word.chars().count();
+                continue;
+            }
+        }
+        text.push(chars[i]);
+        i += 1;
+    }
+    out.push(Piece::Text(text));
+    out.retain(|p| !matches!(p, Piece::Text(t) if t.is_empty()));
+    out
+}
+
+/// Half a unit of the last digit a number is written with.
+fn half_ulp(word: &str) -> f64 {
+    let mantissa = word.split(['e', 'E']).next().unwrap_or(word);
+    let exponent: i32 = word.split(['e', 'E']).nth(1).and_then(|e| e.parse().ok()).unwrap_or(0);
+    let decimals = mantissa.split('.').nth(1).map_or(0, str::len) as i32;
+    0.5 * 10f64.powi(exponent - decimals)
+}
+
+/// Why `actual` does not read as `expected`, if it does not.
+fn mismatch(expected: &str, actual: &str) -> Option<String> {
+    let (expected, actual) = match expected.strip_suffix('…') {
+        Some(prefix) => {
+            let n = prefix.chars().count();
+            (prefix.to_string(), actual.chars().take(n).collect::<String>())
+        }
+        None => (expected.to_string(), actual.to_string()),
+    };
+    let (e, a) = (pieces(&expected), pieces(&actual));
+    if e.len() != a.len() {
+        return Some(format!("shape differs: {e:?} vs {a:?}"));
+    }
+    for (e, a) in e.iter().zip(&a) {
+        match (e, a) {
+            (Piece::Text(x), Piece::Text(y)) if x == y => {}
+            (Piece::Number(x, word), Piece::Number(y, _)) => {
+                let allowed = half_ulp(word) + 0.005 * x.abs();
+                if (x - y).abs() > allowed {
+                    return Some(format!("{word} on the page, {y} from the run (allowed ±{allowed:e})"));
+                }
+            }
+            _ => return Some(format!("{e:?} vs {a:?}")),
+        }
+    }
+    None
+}
+
+/// Run one block as a shell script in `dir`; its standard output.
+fn run_block(dir: &Path, script: &str) -> String {
+    let bin = Path::new(env!("CARGO_BIN_EXE_pneumo")).parent().expect("bin dir").to_path_buf();
+    let path = std::env::join_paths(std::iter::once(bin).chain(std::env::split_paths(&std::env::var_os("PATH").unwrap_or_default())))
+        .expect("PATH");
+    let mut child = Command::new("sh")
+        .arg("-e")
+        .arg("-c")
+        .arg(script)
+        .current_dir(dir)
+        .env("PATH", path)
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("start sh");
+    let start = Instant::now();
+    // the discrepancy step fits four runs; allow it minutes on a busy CI machine
+    while child.try_wait().expect("wait").is_none() {
+        if start.elapsed() > Duration::from_secs(600) {
+            let _ = child.kill();
+            panic!("the tutorial block did not finish within 600 s:\n{script}");
+        }
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    let out = child.wait_with_output().expect("output");
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "docs/tutorial.md block failed ({:?}):\n{script}\nstderr:\n{stderr}", out.status.code());
+    String::from_utf8_lossy(&out.stdout).into_owned()
+}
+
+/// Run the page's blocks (the `sh slow` ones too when `slow`) and compare
+/// the outputs it shows.
+fn run_tutorial(slow: bool) {
+    let page = std::fs::read_to_string(repo().join("docs/tutorial.md")).expect("docs/tutorial.md");
+    let dir = Scratch::new("tutorial");
+    std::os::unix::fs::symlink(repo().join("models").canonicalize().expect("models"), dir.path("models")).expect("link models");
+    let mut commands = String::new();
+    let mut checked_outputs = 0;
+    let mut last_stdout: Option<String> = None;
+    let mut skipping = false;
+    for block in &blocks(&page) {
+        match block.info.as_str() {
+            "sh" | "sh slow" => {
+                skipping = block.info == "sh slow" && !slow;
+                if skipping {
+                    continue;
+                }
+                commands.push_str(&block.text);
+                last_stdout = Some(run_block(&dir.0, &block.text));
+            }
+            "text" if skipping => skipping = false,
+            "text" => {
+                let stdout = last_stdout.take().expect("a ```text block follows a ```sh block directly");
+                let actual: Vec<&str> = stdout.lines().collect();
+                let expected: Vec<&str> = block.text.lines().collect();
+                assert_eq!(expected.len(), actual.len(), "docs/tutorial.md shows\n{}\nthe run printed\n{stdout}", block.text);
+                for (e, a) in expected.iter().zip(&actual) {
+                    if let Some(why) = mismatch(e, a) {
+                        panic!("docs/tutorial.md is stale: {why}\n page: {e}\n  run: {a}\nthe run printed:\n{stdout}");
+                    }
+                }
+                checked_outputs += 1;
+            }
+            _ => {
+                last_stdout = None;
+                skipping = false;
+            }
+        }
+    }
+    assert!(commands.lines().filter(|l| l.starts_with("pneumo ")).count() >= 7, "too few commands found:\n{commands}");
+    assert!(checked_outputs >= 4, "{checked_outputs} outputs checked");
+    // every file the commands write into scratch/ is there
+    for word in commands.split_whitespace() {
+        if let Some(name) = word.strip_prefix("scratch/") {
+            let p = dir.path("scratch").join(name);
+            assert!(p.exists(), "the tutorial's command should have written scratch/{name}");
+        }
+    }
+}
+
+#[test]
+fn the_tutorial_runs_as_written_and_prints_what_it_shows() {
+    run_tutorial(false);
+}
+
+/// The comparison with measurements takes minutes: `-- --ignored`.
+#[test]
+#[ignore]
+fn the_tutorial_s_slow_step_runs_too() {
+    run_tutorial(true);
+}
+
+#[test]
+fn the_comparison_reads_numbers_to_the_digits_shown() {
+    assert_eq!(mismatch("total 2.9760 s", "total 2.9760 s"), None);
+    assert_eq!(mismatch("total 2.9760 s", "total 2.9761 s"), None);
+    assert!(mismatch("total 2.9760 s", "total 3.0100 s").is_some());
+    assert!(mismatch("total 2.9760 s", "extend 2.9760 s").is_some());
+    assert!(mismatch("n 1.5", "n 1.5 more").is_some());
+    assert_eq!(mismatch("t = 7.7350 s, …", "t = 7.7350 s, 194 steps"), None);
+    assert_eq!(mismatch("…", "4026 simulations in 417.3 s"), None);
+    assert_eq!(mismatch("residual 3.3e-7", "residual 3.3e-7"), None);
+    assert!(mismatch("residual 3.3e-7", "residual 4.3e-7").is_some());
+    assert_eq!(mismatch("head.p 4 bar", "head.p 4 bar"), None);
+    assert!(mismatch("case 0  4 bar", "case 0  5 bar").is_some());
+}
