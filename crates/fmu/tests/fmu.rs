@@ -5,8 +5,11 @@
 //! (`pneumo_app::run`). Also: errors come back as `fmi2Error` with a
 //! one-line message through the logger, never a crash.
 //!
-//! Needs the runtime library next to the test executable's folder
-//! (`target/release/libpneumo_fmu.so`): cargo builds it with this package.
+//! Needs the runtime library beside the test executable
+//! (`target/release/deps/libpneumo_fmu.so`): `cargo test` builds it with
+//! this package. A second importer, a plain C host (tests/c_host/host.c),
+//! is compiled with the system's C compiler and runs the FMU in its own
+//! process.
 
 use libloading::{Library, Symbol};
 use std::ffi::{c_char, c_int, c_uint, c_void, CStr, CString};
@@ -269,5 +272,60 @@ fn position_control_driven_through_its_input_matches_simulate_and_errors_are_sta
     assert_eq!(fmu.step(c, 0.5, 0.2), 0);
     assert!(fmu.get(c, fmu.vr("x")) < x - 1.0, "u = -0.3 retracts: x from {x} to {} mm", fmu.get(c, fmu.vr("x")));
     fmu.free(c);
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+/// A second importer (issue 26): the plain C host of tests/c_host/host.c,
+/// compiled with the system's C compiler (the one Rust links with), loads
+/// the exported meter-out FMU in its own process, steps it 1 ms at a time
+/// for 3 s and prints the piston position; it must agree with `pneumo
+/// simulate` as the in-process importer above does.
+#[test]
+fn a_c_host_runs_the_meter_out_fmu_and_reproduces_simulate() {
+    use std::process::Command;
+    let dir = scratch("c_host");
+    let host = dir.join("host");
+    let source = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/c_host/host.c");
+    let cc = std::env::var("CC").unwrap_or_else(|_| "cc".into());
+    match Command::new(&cc).arg("-O2").arg("-o").arg(&host).arg(&source).arg("-ldl").status() {
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => {
+            eprintln!("skipped: no C compiler `{cc}` on PATH ({e}); set CC to run the C host test");
+            return;
+        }
+        Err(e) => panic!("running {cc}: {e}"),
+        Ok(status) => assert!(status.success(), "{cc} could not compile {}", source.display()),
+    }
+    let unpacked = export_and_unpack(&models().join("meter_out.json"), &dir);
+    let fmu = Fmu::load(&unpacked);
+    let library = unpacked.join("binaries/linux64").join(format!("{}.so", fmu.id));
+    let uri = format!("file://{}", unpacked.join("resources").display());
+    let guid = attribute(&fmu.description, "guid");
+    let vr = fmu.vr("x").to_string();
+    let out =
+        Command::new(&host).arg(&library).args([uri.as_str(), fmu.id.as_str(), guid.as_str(), "3", "0.001", vr.as_str()]).output().unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "the C host failed: {stderr}");
+    let printed: Vec<(f64, f64)> = String::from_utf8(out.stdout)
+        .unwrap()
+        .lines()
+        .map(|line| {
+            let mut fields = line.split_whitespace().map(|f| f.parse::<f64>().unwrap());
+            (fields.next().unwrap(), fields.next().unwrap())
+        })
+        .collect();
+    assert_eq!(printed.len(), 3000, "one line per 1 ms step");
+    let reference = simulate(&models().join("meter_out.json"), "piston.x", 3.0);
+    let (mut worst, mut compared) = (0.0f64, 0);
+    for (t, x_mm) in &printed {
+        if let Some(&(_, x)) = reference.iter().find(|(tr, _)| (tr - t).abs() < 1e-6) {
+            worst = worst.max((x_mm - x * 1e3).abs());
+            compared += 1;
+        }
+    }
+    assert!(compared > 2900, "{compared} points compared");
+    // the piston travels the whole 450 mm stroke in these 3 s, so a host that
+    // stepped nothing or read the wrong variable fails by hundreds of mm
+    assert!(printed.iter().any(|(_, x)| *x > 400.0), "the piston never extended in the C host's run");
+    assert!(worst < 0.1, "largest difference in x between the C host and simulate: {worst} mm");
     std::fs::remove_dir_all(&dir).unwrap();
 }
