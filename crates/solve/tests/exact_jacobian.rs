@@ -21,13 +21,7 @@ mod drives;
 use common::*;
 use solve::exact::Exact;
 use solve::jacobian::Structure;
-use solve::{Model, SimOptions};
-
-fn model_of(flat: &graph::FlatNetlist) -> (Model, SimOptions) {
-    let circuit = graph::build(flat).unwrap_or_else(|e| panic!("build: {e}"));
-    let opts = solve::options_from(&circuit.simulation).unwrap_or_else(|e| panic!("settings: {e}"));
-    (Model::new(circuit), opts)
-}
+use solve::Model;
 
 /// The model and state at the ends of runs of a few lengths.
 fn visited(flat: &graph::FlatNetlist) -> Vec<(Model, Vec<f64>)> {

@@ -18,13 +18,7 @@ mod drives;
 use common::*;
 use drives::drives;
 use solve::jacobian::{Structure, Workspace};
-use solve::{Model, SimOptions};
-
-fn model_of(flat: &graph::FlatNetlist) -> (Model, SimOptions) {
-    let circuit = graph::build(flat).unwrap_or_else(|e| panic!("build: {e}"));
-    let opts = solve::options_from(&circuit.simulation).unwrap_or_else(|e| panic!("settings: {e}"));
-    (Model::new(circuit), opts)
-}
+use solve::Model;
 
 /// Models as runs of a few lengths leave them (pistons at stops and in
 /// mid-stroke, valves switched either way, friction modes as they are),

@@ -108,3 +108,11 @@ pub fn crossings(s: &[(f64, f64)], level: f64) -> Vec<f64> {
 pub fn rel(a: f64, b: f64) -> f64 {
     (a - b).abs() / b.abs()
 }
+
+/// A flattened netlist built into a model with its simulation settings, as
+/// the command line builds it (the Jacobian tests start every run here).
+pub fn model_of(flat: &FlatNetlist) -> (solve::Model, SimOptions) {
+    let circuit = graph::build(flat).unwrap_or_else(|e| panic!("build: {e}"));
+    let opts = solve::options_from(&circuit.simulation).unwrap_or_else(|e| panic!("settings: {e}"));
+    (solve::Model::new(circuit), opts)
+}
