@@ -203,21 +203,22 @@ fn noise_text(signal: &str, sigma: f64) -> String {
 
 /// One row of the sensor-error table: offset in the channel's unit, gain in %, skew in ms.
 fn sensor_row(x: &SensorEstimate) -> String {
+    format!("| {} |\n", sensor_cells(x).join(" | "))
+}
+
+/// The cells of [`sensor_row`] (plain text; the caller escapes them).
+pub fn sensor_cells(x: &SensorEstimate) -> Vec<String> {
     let ci = |c: Option<(f64, f64)>, f: &dyn Fn(f64) -> String| c.map(|(a, b)| format!(" [{}, {}]", f(a), f(b))).unwrap_or_default();
     let offset = |v: f64| noise_text(&x.signal, v);
     let gain = |v: f64| format!("{} %", fmt(100.0 * v));
     let skew = |v: f64| format!("{} ms", fmt(1e3 * v));
-    format!(
-        "| {} | {} | {}{} | {}{} | {}{} |\n",
-        x.experiment,
-        x.signal,
-        offset(x.offset),
-        ci(x.offset_ci95, &offset),
-        gain(x.gain),
-        ci(x.gain_ci95, &gain),
-        skew(x.time_skew),
-        ci(x.time_skew_ci95, &skew)
-    )
+    vec![
+        x.experiment.clone(),
+        x.signal.clone(),
+        format!("{}{}", offset(x.offset), ci(x.offset_ci95, &offset)),
+        format!("{}{}", gain(x.gain), ci(x.gain_ci95, &gain)),
+        format!("{}{}", skew(x.time_skew), ci(x.time_skew_ci95, &skew)),
+    ]
 }
 
 /// The 95 % interval of an estimate as text; at a bound, which one, and
@@ -235,7 +236,7 @@ fn interval_text(e: &Estimate) -> String {
 }
 
 fn estimate_row(e: &Estimate) -> String {
-    format!("| {} | {} | {} |\n", e.name, shown(e, e.value), interval_text(e))
+    format!("| {} |\n", estimate_cells(e).join(" | "))
 }
 
 /// The phases that hold samples, in their fixed order: a vessel test shows
@@ -370,7 +371,7 @@ fn ensure_font() -> Result<(), AppError> {
 }
 
 /// Display scale and axis label of a signal.
-fn display(signal: &str) -> (f64, String) {
+pub fn display(signal: &str) -> (f64, String) {
     match signal.rsplit('.').next().unwrap_or("") {
         "p" => (1e-5, format!("{signal} [bar]")),
         "x" => (1e3, format!("{signal} [mm]")),
@@ -656,30 +657,42 @@ fn model_section(md: &mut String, title: &str, m: &ModelSummary) {
     md.push('\n');
 }
 
+/// Column heads of the candidates table (report.md and the HTML report).
+pub const CANDIDATE_HEAD: [&str; 6] = ["round", "effect", "ΔIC", "held-out RMSE", "parameters", "verdict"];
+
+/// One row of the candidates table, as plain text cells (the caller escapes them).
+pub fn candidate_cells(c: &Candidate) -> Vec<String> {
+    let params = if c.estimates.is_empty() {
+        c.params.iter().map(|(k, v)| format!("{k} = {}", effect_value(&c.effect, k, *v))).collect::<Vec<_>>().join(", ")
+    } else {
+        c.estimates
+            .iter()
+            .map(|e| {
+                format!(
+                    "{} = {}{}",
+                    e.name.rsplit('.').next().unwrap_or(&e.name),
+                    shown(e, e.value),
+                    e.std_error.map(|s| format!(" ± {}", shown(e, s).split(' ').next().unwrap_or(""))).unwrap_or_default()
+                )
+            })
+            .collect::<Vec<_>>()
+            .join(", ")
+    };
+    let verdict = if c.accepted { "passes every test".to_string() } else { c.reasons.join("; ") };
+    let dic = if c.screened_out { format!("{} (first part)", fmt(c.delta_ic)) } else { fmt(c.delta_ic) };
+    vec![c.round.to_string(), c.effect.clone(), dic, fmt(c.heldout_rmse), params, verdict]
+}
+
 fn candidate_rows(md: &mut String, cands: &[Candidate]) {
-    let _ = writeln!(md, "| round | effect | ΔIC | held-out RMSE | parameters | verdict |\n|---|---|---|---|---|---|");
-    for c in cands {
-        let params = if c.estimates.is_empty() {
-            c.params.iter().map(|(k, v)| format!("{k} = {}", effect_value(&c.effect, k, *v))).collect::<Vec<_>>().join(", ")
-        } else {
-            c.estimates
-                .iter()
-                .map(|e| {
-                    format!(
-                        "{} = {}{}",
-                        e.name.rsplit('.').next().unwrap_or(&e.name),
-                        shown(e, e.value),
-                        e.std_error.map(|s| format!(" ± {}", shown(e, s).split(' ').next().unwrap_or(""))).unwrap_or_default()
-                    )
-                })
-                .collect::<Vec<_>>()
-                .join(", ")
-        };
-        let verdict = if c.accepted { "passes every test".to_string() } else { c.reasons.join("; ") };
-        let dic = if c.screened_out { format!("{} (first part)", fmt(c.delta_ic)) } else { fmt(c.delta_ic) };
-        let _ = writeln!(md, "| {} | {} | {} | {} | {} | {} |", c.round, c.effect, dic, fmt(c.heldout_rmse), params, verdict);
-    }
+    let rows: Vec<Vec<String>> = cands.iter().map(candidate_cells).collect();
+    table(md, &CANDIDATE_HEAD, &rows, "No candidate was tried.");
     md.push('\n');
+}
+
+/// One row of the estimates table: name, estimate and 95 % interval in the
+/// parameter's unit (plain text; the caller escapes it).
+pub fn estimate_cells(e: &Estimate) -> Vec<String> {
+    vec![e.name.clone(), shown(e, e.value), interval_text(e)]
 }
 
 /// Write the report directory as one transaction: every file or none (a

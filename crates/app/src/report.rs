@@ -6,6 +6,12 @@
 //! work) built from the same summary JSON that `pneumo simulate --summary`
 //! writes.
 //!
+//! With `--experiments E.json` the page adds the discrepancy result
+//! ([`fit`]): the workflow of [`crate::discrepancy`] run on the model and
+//! the manifest's records, shown as the graded verdict, before/after
+//! panels with the measurements as markers, the estimates and the
+//! candidates.
+//!
 //! Safe to share: every string from a netlist or the results reaches the
 //! page through [`html_text`] (markup characters become entities) or inside
 //! the JSON data block through [`script_json`] (no `<`, `>` or `&` at all),
@@ -23,6 +29,8 @@ use crate::simulate::summary_of;
 use serde_json::{json, Value};
 use std::fmt::Write;
 use std::path::PathBuf;
+
+pub mod fit;
 
 /// uPlot 1.6.32 (MIT, © Leon Sorokin), the minified browser build.
 const UPLOT_JS: &str = include_str!("report/vendor/uPlot.iife.min.js");
@@ -49,6 +57,8 @@ pub struct ReportOptions {
     pub t_end: Option<f64>,
     /// The page to write (.html).
     pub output: PathBuf,
+    /// An experiments manifest: add the discrepancy result to the page.
+    pub experiments: Option<PathBuf>,
 }
 
 /// Run the model of `o` and write its report page; `warn` receives the
@@ -60,17 +70,27 @@ pub fn report(o: &ReportOptions, warn: &mut dyn FnMut(&[graph::Warning])) -> Res
         _ => return Err(AppError::Usage(format!("--out {}: the file name must end in .html", shown_path(&o.output)))),
     }
     let (flat, source) = Source::read(&o.model)?;
-    let inputs: Vec<&std::path::Path> = source.files.iter().map(|(p, _)| p.as_path()).collect();
+    let experiments = o.experiments.as_deref().map(|m| crate::discrepancy::read_experiments(&flat, m)).transpose()?;
+    let mut inputs: Vec<&std::path::Path> = source.files.iter().map(|(p, _)| p.as_path()).collect();
+    inputs.extend(experiments.iter().flat_map(|e| e.files.iter().map(PathBuf::as_path)));
     let mut outputs = Transaction::new(&inputs);
     outputs.check_targets(&[o.output.as_path()])?;
     let diagram = diagram_of(flat.clone(), &source, &o.sets)?;
     let description =
         source.files.first().and_then(|(p, text)| graph::expand::parse(text, &p.display().to_string()).ok()).and_then(|n| n.description);
     let spec = RunSpec { sets: o.sets.clone(), cycles: o.cycles, t_end: o.t_end, cancel: None };
+    let discrepancy = match (&experiments, &o.experiments) {
+        (Some(e), Some(m)) => {
+            let outcome = crate::discrepancy::analyse(&flat, e)?;
+            Some(Discrepancy { html: fit::section(&outcome, &shown_path(m)), panels: fit::panels(&outcome) })
+        }
+        _ => None,
+    };
     let prepared = prepare(flat, &spec)?;
     warn(&prepared.warnings);
     let run = execute(prepared)?;
-    let page = Page { source_name: source.name(), sha256: source.sha256(), description, sets: o.sets.clone(), svg: diagram.svg };
+    let page =
+        Page { source_name: source.name(), sha256: source.sha256(), description, sets: o.sets.clone(), svg: diagram.svg, discrepancy };
     let text = html(&page, &run);
     outputs.add(&o.output, text.as_bytes())?;
     outputs.commit()?;
@@ -89,12 +109,25 @@ pub struct Page {
     pub sets: Vec<String>,
     /// The diagram (an SVG document, its text escaped by `crates/draw`).
     pub svg: String,
+    /// The discrepancy section, with `--experiments`.
+    pub discrepancy: Option<Discrepancy>,
+}
+
+/// The discrepancy result as the page shows it.
+pub struct Discrepancy {
+    /// The section's HTML (every string escaped).
+    pub html: String,
+    /// Its before/after panels, for the data block.
+    pub panels: Vec<Value>,
 }
 
 /// The whole page.
 pub fn html(page: &Page, run: &Run) -> String {
     let summary = summary_of(run);
-    let data = plot_data(&run.result);
+    let mut data = plot_data(&run.result);
+    if let (Some(d), Some(panels)) = (&page.discrepancy, data["panels"].as_array_mut()) {
+        panels.extend(d.panels.iter().cloned());
+    }
     let data_block = script_json(&data);
     let style = format!("{UPLOT_CSS}\n{REPORT_CSS}");
     let csp = format!(
@@ -135,9 +168,11 @@ pub fn html(page: &Page, run: &Run) -> String {
     if let Some(why) = &run.incomplete {
         let _ = writeln!(h, "<p class=\"warning\">Incomplete run: {}</p>", html_text(why));
     }
-    h.push_str(
-        "</header>\n<nav><a href=\"#circuit\">Circuit</a> · <a href=\"#summary\">Summary</a> · <a href=\"#traces\">Traces</a></nav>\n",
-    );
+    h.push_str("</header>\n<nav><a href=\"#circuit\">Circuit</a> · <a href=\"#summary\">Summary</a> · <a href=\"#traces\">Traces</a>");
+    if page.discrepancy.is_some() {
+        h.push_str(" · <a href=\"#discrepancy\">Model and measurements</a>");
+    }
+    h.push_str("</nav>\n");
     h.push_str("<section id=\"circuit\">\n<h2>Circuit</h2>\n<div class=\"diagram\">\n");
     h.push_str(svg_element(&page.svg));
     h.push_str("\n</div>\n</section>\n");
@@ -153,6 +188,10 @@ pub fn html(page: &Page, run: &Run) -> String {
         "<noscript><p class=\"warning\">The plots need JavaScript (the page's own script only); the tables above do not.</p></noscript>\n",
     );
     h.push_str("<div id=\"plots\"></div>\n</section>\n");
+    if let Some(d) = &page.discrepancy {
+        h.push_str(&d.html);
+        h.push('\n');
+    }
     let _ = writeln!(
         h,
         "<footer><p>Plots drawn with uPlot 1.6.32, embedded under its licence:</p><pre class=\"licence\">{}</pre></footer>",

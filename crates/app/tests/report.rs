@@ -125,19 +125,8 @@ const ALLOWED: &[&str] = &[
     "pre", "script",
 ];
 
-#[test]
-fn a_hostile_netlist_renders_inert() {
-    let dir = scratch("hostile");
-    let mut netlist: Value = serde_json::from_str(&std::fs::read_to_string(repo().join("models/meter_out.json")).unwrap()).unwrap();
-    netlist["name"] = Value::from(HOSTILE_NAME);
-    netlist["description"] = Value::from(format!("{HOSTILE_TEXT}\n\n{HOSTILE_NAME}"));
-    netlist["parameters"]["bore"]["description"] = Value::from(HOSTILE_TEXT);
-    let model = dir.join("m.json");
-    std::fs::write(&model, serde_json::to_string(&netlist).unwrap()).unwrap();
-    let out = dir.join("r.html");
-    let text = page(&model, &out, 1);
-    let doc = Html::parse_document(&text);
-    check_policy(&doc);
+/// No element, attribute or comment that the page's own code does not write.
+fn check_inert(doc: &Html) {
     for node in doc.tree.nodes() {
         match node.value() {
             Node::Element(e) => {
@@ -155,6 +144,22 @@ fn a_hostile_netlist_renders_inert() {
             _ => {}
         }
     }
+}
+
+#[test]
+fn a_hostile_netlist_renders_inert() {
+    let dir = scratch("hostile");
+    let mut netlist: Value = serde_json::from_str(&std::fs::read_to_string(repo().join("models/meter_out.json")).unwrap()).unwrap();
+    netlist["name"] = Value::from(HOSTILE_NAME);
+    netlist["description"] = Value::from(format!("{HOSTILE_TEXT}\n\n{HOSTILE_NAME}"));
+    netlist["parameters"]["bore"]["description"] = Value::from(HOSTILE_TEXT);
+    let model = dir.join("m.json");
+    std::fs::write(&model, serde_json::to_string(&netlist).unwrap()).unwrap();
+    let out = dir.join("r.html");
+    let text = page(&model, &out, 1);
+    let doc = Html::parse_document(&text);
+    check_policy(&doc);
+    check_inert(&doc);
     // what the netlist said is there, as text
     let h1: String = select(&doc, "h1")[0].text().collect();
     assert_eq!(h1, HOSTILE_NAME);
@@ -166,6 +171,60 @@ fn a_hostile_netlist_renders_inert() {
     assert!(!description[0].contains('\u{1}') && !description[0].contains('\u{202e}'), "control characters are dropped");
     // and in the diagram's text
     assert!(select(&doc, "svg title").iter().any(|t| t.text().collect::<String>().contains(HOSTILE_NAME)));
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// A hostile experiments manifest and data file: markup in the experiment
+/// name, the data file's name and a column header. One short record
+/// (the first cycle of the discrepancy example's run1.csv) and no
+/// candidate effects (`"effects": []`), so only the calibration runs.
+#[test]
+fn a_hostile_manifest_and_data_header_render_inert() {
+    let dir = scratch("hostile-manifest");
+    let csv = std::fs::read_to_string(repo().join("models/examples/discrepancy/run1.csv")).unwrap();
+    let mut lines = csv.lines();
+    let header = lines.next().unwrap();
+    let mut data = format!("{header},<img src=x onerror=alert(6)>\n");
+    for l in lines.take(3000) {
+        data.push_str(&format!("{l},0\n"));
+    }
+    let data_name = "<b>run<script>alert(7)</script>.csv";
+    std::fs::write(dir.join(data_name), data).unwrap();
+    let manifest = serde_json::json!({
+        "experiments": [{
+            "name": HOSTILE_NAME, "data": data_name,
+            "set": { "supply.p": "4 bar", "flow_control.C": "26 L/min/bar", "controller.dwell_extended": "0.2 s", "controller.dwell_retracted": "0.2 s" },
+            "columns": { "p1_Pa": "head.p", "p2_Pa": "rod.p", "x_m": "piston.x" }
+        }],
+        "effects": []
+    });
+    let e = dir.join("<i>E</i>.json");
+    std::fs::write(&e, serde_json::to_string(&manifest).unwrap()).unwrap();
+    let out = dir.join("r.html");
+    let o = ReportOptions {
+        model: repo().join("models/meter_out.json"),
+        cycles: Some(1),
+        output: out.clone(),
+        experiments: Some(e),
+        ..Default::default()
+    };
+    report(&o, &mut |_| {}).unwrap();
+    let text = std::fs::read_to_string(&out).unwrap();
+    let doc = Html::parse_document(&text);
+    check_policy(&doc);
+    check_inert(&doc);
+    assert_eq!(select(&doc, "section#discrepancy").len(), 1, "the discrepancy section is there");
+    let section: String = select(&doc, "section#discrepancy")[0].text().collect();
+    assert!(section.contains("<i>E</i>.json"), "the manifest's name shows as text");
+    assert!(section.contains(HOSTILE_NAME), "the experiment's name shows as text in the sensor table");
+    // the panels carry the experiment's name in the JSON block, never as markup
+    let data = data_of(&doc);
+    let fit: Vec<&Value> = data["panels"].as_array().unwrap().iter().filter(|p| p["host"] == "fit-plots").collect();
+    assert_eq!(fit.len(), 3, "one panel per measured channel");
+    assert!(fit.iter().all(|p| p["title"].as_str().unwrap().starts_with(HOSTILE_NAME)));
+    let measured = &fit[0]["series"][0];
+    assert_eq!(measured["markers"], true);
+    assert!(measured["values"].as_array().unwrap().iter().filter(|v| v.is_number()).count() > 1000);
     let _ = std::fs::remove_dir_all(&dir);
 }
 

@@ -2,16 +2,19 @@
 // block. Writes nothing from the data as markup: labels go through
 // textContent (here and in uPlot). Its state is left on <body> for the
 // headless-browser test: data-plots (panels drawn), data-points (non-null
-// values handed to the plots), data-errors (script errors and Content-
+// values handed to the plots), data-markers (measured values drawn as
+// markers, with --experiments), data-errors (script errors and Content-
 // Security-Policy violations, joined).
 (function () {
   "use strict";
   var errors = [];
   var drawn = 0;
   var points = 0;
+  var markers = 0;
   function mark() {
     document.body.setAttribute("data-plots", String(drawn));
     document.body.setAttribute("data-points", String(points));
+    document.body.setAttribute("data-markers", String(markers));
     document.body.setAttribute("data-errors", errors.join(" | "));
   }
   window.addEventListener("error", function (e) {
@@ -23,10 +26,13 @@
     mark();
   });
   var palette = ["#1f77b4", "#d62728", "#2ca02c", "#ff7f0e", "#9467bd", "#8c564b", "#e377c2", "#7f7f7f", "#bcbd22", "#17becf"];
-  var host = document.getElementById("plots");
   var plots = [];
   function width() {
+    var host = document.getElementById("plots");
     return Math.max(320, Math.min(host.clientWidth || 900, 1100));
+  }
+  function noPath() {
+    return null;
   }
   try {
     var data = JSON.parse(document.getElementById("pneumo-data").textContent);
@@ -36,15 +42,30 @@
       var heading = document.createElement("h3");
       heading.textContent = p.title;
       box.appendChild(heading);
-      host.appendChild(box);
+      if (p.note) {
+        var note = document.createElement("p");
+        note.className = "hint";
+        note.textContent = p.note;
+        box.appendChild(note);
+      }
+      document.getElementById(p.host || "plots").appendChild(box);
       var series = [{ label: data.x_label }];
-      var columns = [data.time];
+      var columns = [p.time || data.time];
       p.series.forEach(function (s, i) {
-        series.push({ label: s.label, stroke: palette[i % palette.length], width: 1.5 });
-        columns.push(s.values);
+        var color = s.color || palette[i % palette.length];
+        var count = 0;
         s.values.forEach(function (v) {
-          if (v !== null) points += 1;
+          if (v !== null) count += 1;
         });
+        if (s.markers) {
+          // measurements: markers only, no line between samples
+          series.push({ label: s.label, stroke: color, width: 1, paths: noPath, points: { show: true, size: 4, stroke: color, fill: color } });
+          markers += count;
+        } else {
+          series.push({ label: s.label, stroke: color, width: 1.5, points: { show: false } });
+        }
+        columns.push(s.values);
+        points += count;
       });
       var y = { auto: true };
       if (p.range) y = { auto: false, range: p.range };
@@ -54,7 +75,7 @@
         series: series,
         scales: { x: { time: false }, y: y },
         axes: [{ label: data.x_label }, { label: p.y_label, size: 64 }],
-        cursor: { sync: { key: "pneumo" }, drag: { x: true, y: false } },
+        cursor: { sync: { key: p.sync || "pneumo" }, drag: { x: true, y: false } },
         legend: { live: true }
       };
       plots.push(new uPlot(opts, columns, box));

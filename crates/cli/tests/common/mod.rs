@@ -48,6 +48,13 @@ impl Drop for Scratch {
 /// Run the `pneumo` binary in `dir` with a wall-clock limit of 60 s (a hang
 /// fails the test instead of blocking it).
 pub fn pneumo_in(dir: &Path, args: &[&str]) -> std::process::Output {
+    pneumo_within(dir, args, 60)
+}
+
+/// As [`pneumo_in`], with a limit of `seconds` (for the few commands that
+/// run a whole discrepancy analysis).
+#[allow(dead_code)]
+pub fn pneumo_within(dir: &Path, args: &[&str], seconds: u64) -> std::process::Output {
     use std::process::{Command, Stdio};
     use std::time::{Duration, Instant};
     let mut child = Command::new(env!("CARGO_BIN_EXE_pneumo"))
@@ -62,9 +69,9 @@ pub fn pneumo_in(dir: &Path, args: &[&str]) -> std::process::Output {
         if child.try_wait().expect("wait").is_some() {
             return child.wait_with_output().expect("output");
         }
-        if start.elapsed() > Duration::from_secs(60) {
+        if start.elapsed() > Duration::from_secs(seconds) {
             let _ = child.kill();
-            panic!("pneumo {args:?} in {} did not finish within 60 s", dir.display());
+            panic!("pneumo {args:?} in {} did not finish within {seconds} s", dir.display());
         }
         std::thread::sleep(Duration::from_millis(10));
     }
