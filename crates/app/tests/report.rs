@@ -122,7 +122,7 @@ const HOSTILE_TEXT: &str =
 const ALLOWED: &[&str] = &[
     "html", "head", "meta", "title", "style", "body", "header", "h1", "h2", "h3", "p", "code", "nav", "a", "section", "div", "svg", "g",
     "rect", "line", "polyline", "polygon", "circle", "path", "text", "table", "thead", "tbody", "tr", "th", "td", "noscript", "footer",
-    "pre", "script",
+    "pre", "script", "strong", "ul", "li",
 ];
 
 /// No element, attribute or comment that the page's own code does not write.
@@ -188,7 +188,7 @@ fn a_hostile_manifest_and_data_header_render_inert() {
     for l in lines.take(3000) {
         data.push_str(&format!("{l},0\n"));
     }
-    let data_name = "<b>run<script>alert(7)</script>.csv";
+    let data_name = "<b>run<img src=x onerror=alert(7)>.csv";
     std::fs::write(dir.join(data_name), data).unwrap();
     let manifest = serde_json::json!({
         "experiments": [{
@@ -198,7 +198,7 @@ fn a_hostile_manifest_and_data_header_render_inert() {
         }],
         "effects": []
     });
-    let e = dir.join("<i>E</i>.json");
+    let e = dir.join("<i>E<b>.json");
     std::fs::write(&e, serde_json::to_string(&manifest).unwrap()).unwrap();
     let out = dir.join("r.html");
     let o = ReportOptions {
@@ -215,7 +215,7 @@ fn a_hostile_manifest_and_data_header_render_inert() {
     check_inert(&doc);
     assert_eq!(select(&doc, "section#discrepancy").len(), 1, "the discrepancy section is there");
     let section: String = select(&doc, "section#discrepancy")[0].text().collect();
-    assert!(section.contains("<i>E</i>.json"), "the manifest's name shows as text");
+    assert!(section.contains("<i>E<b>.json"), "the manifest's name shows as text");
     assert!(section.contains(HOSTILE_NAME), "the experiment's name shows as text in the sensor table");
     // the panels carry the experiment's name in the JSON block, never as markup
     let data = data_of(&doc);
