@@ -45,6 +45,12 @@
 //!   quantity's default). "free" as `accuracy` leaves the offset without a
 //!   prior (the old behaviour).
 //!
+//! - `user_effects`: candidate effects of the user's own, declared as
+//!   netlist edits (components, connections, `set` values and `free`
+//!   parameters with bounds, `null`, optional prior); see
+//!   [`crate::effects::user`] and docs/discrepancy.md. They are tried with
+//!   the built-ins (which `effects` may restrict) and judged the same way.
+//!
 //! Unknown keys are errors; errors name the file, line and column.
 
 use graph::netlist::Value;
@@ -73,6 +79,12 @@ pub struct Manifest {
     pub nuisance: Option<NuisanceSpec>,
     #[serde(default)]
     pub sensors: BTreeMap<String, SensorSpec>,
+    /// Candidate effects declared as netlist edits ([`crate::effects::user`]).
+    #[serde(default)]
+    pub user_effects: Vec<crate::effects::user::UserEffectSpec>,
+    /// The file it was read from (set by [`parse`]; not part of the format).
+    #[serde(skip)]
+    pub origin: String,
 }
 
 /// One entry of the manifest's `sensors` section.
@@ -209,7 +221,7 @@ pub enum ManifestError {
 /// Parse manifest text; `origin` names the file in errors.
 pub fn parse(text: &str, origin: &str) -> Result<Manifest, ManifestError> {
     let text = text.strip_prefix('\u{feff}').unwrap_or(text);
-    let m: Manifest = serde_json::from_str(text).map_err(|e| ManifestError::Json {
+    let mut m: Manifest = serde_json::from_str(text).map_err(|e| ManifestError::Json {
         file: origin.to_string(),
         line: e.line(),
         column: e.column(),
@@ -218,6 +230,7 @@ pub fn parse(text: &str, origin: &str) -> Result<Manifest, ManifestError> {
     if m.experiments.is_empty() {
         return Err(ManifestError::Invalid { file: origin.into(), message: "\"experiments\" is empty".into() });
     }
+    m.origin = origin.to_string();
     Ok(m)
 }
 
@@ -335,6 +348,7 @@ fn resolve_unescaped(m: &Manifest, flat: &graph::FlatNetlist, read: &ReadData) -
     if let Some(names) = &m.effects {
         options.effects = Some(names.clone());
     }
+    options.user_effects = user_effects(m, flat, &experiments)?;
     if let Some(n) = m.max_effects {
         options.max_effects = n;
     }
@@ -358,6 +372,36 @@ fn resolve_unescaped(m: &Manifest, flat: &graph::FlatNetlist, read: &ReadData) -
     }
     Ok(Resolved { experiments, calibrate, options })
 }
+
+/// The manifest's declared effects, checked against the model (the
+/// declaration, then the nesting: simulated over the first experiment's
+/// duration, at most [`NESTING_CHECK_SECONDS`], on the measured signals);
+/// errors name the manifest.
+fn user_effects(m: &Manifest, flat: &graph::FlatNetlist, experiments: &[crate::experiment::Experiment]) -> Result<Vec<crate::effects::UserEffect>, String> {
+    let file = if m.origin.is_empty() { "manifest" } else { m.origin.as_str() };
+    let mut out: Vec<crate::effects::UserEffect> = Vec::new();
+    let duration = experiments.first().and_then(|e| e.times.last().copied()).filter(|t| *t > 0.0).unwrap_or(1.0);
+    let mut measured: Vec<String> = experiments.iter().flat_map(|e| e.channels.iter().map(|c| c.signal.clone())).collect();
+    measured.sort();
+    measured.dedup();
+    // the nesting check runs at the first experiment's operating point
+    let mut probe = flat.clone();
+    for s in experiments.first().map(|e| e.sets.as_slice()).unwrap_or_default() {
+        graph::apply_set(&mut probe, s).map_err(|e| format!("{file}: {e}"))?;
+    }
+    for spec in &m.user_effects {
+        if out.iter().any(|u| u.name == spec.name) {
+            return Err(format!("{file}: user effect \"{}\" is declared twice", spec.name));
+        }
+        let effect = crate::effects::UserEffect::declare(spec, flat).map_err(|e| format!("{file}: {e}"))?;
+        effect.check_nested(&probe, duration.min(NESTING_CHECK_SECONDS), &measured).map_err(|e| format!("{file}: {e}"))?;
+        out.push(effect);
+    }
+    Ok(out)
+}
+
+/// Longest simulation of the nesting check of a declared effect [s].
+pub const NESTING_CHECK_SECONDS: f64 = 3.0;
 
 #[cfg(test)]
 mod tests {
