@@ -186,9 +186,10 @@ fn shown(e: &Estimate, v: f64) -> String {
 /// among the candidates tried.
 fn effect_value(cands: &[Candidate], effect: &str, param: &str, v: f64) -> String {
     let full = format!("{effect}.{param}");
-    let unit = identify::effects::by_name(effect).and_then(|e| e.params().into_iter().find(|p| p.name == param)).map(|p| p.unit).or_else(|| {
-        cands.iter().filter(|c| c.effect == effect).flat_map(|c| &c.estimates).find(|e| e.name == full).map(|e| e.unit.clone())
-    });
+    let unit =
+        identify::effects::by_name(effect).and_then(|e| e.params().into_iter().find(|p| p.name == param)).map(|p| p.unit).or_else(|| {
+            cands.iter().filter(|c| c.effect == effect).flat_map(|c| &c.estimates).find(|e| e.name == full).map(|e| e.unit.clone())
+        });
     match unit.as_deref().map(|u| (u, units::to_unit(v, u))) {
         Some((u, Ok(x))) if !u.is_empty() && x.is_finite() => format!("{} {u}", fmt(x)),
         _ => fmt(v),
@@ -269,7 +270,8 @@ pub fn text_summary(o: &Outcome) -> String {
     let rm = |m: &ModelSummary| m.rmse_normalized.iter().map(|(k, v)| format!("{k} {v:.2}")).collect::<Vec<_>>().join(", ");
     let _ = writeln!(t, "baseline: normalised RMSE {} (1 = noise level); held-out {:.3}", rm(&s.baseline), s.baseline.heldout_rmse);
     for c in &s.candidates {
-        let params = c.params.iter().map(|(k, v)| format!("{k} = {}", effect_value(&s.candidates, &c.effect, k, *v))).collect::<Vec<_>>().join(", ");
+        let params =
+            c.params.iter().map(|(k, v)| format!("{k} = {}", effect_value(&s.candidates, &c.effect, k, *v))).collect::<Vec<_>>().join(", ");
         let _ = writeln!(
             t,
             "  round {} {:<18} ΔIC {:>12} held-out {:>9} {} {}",

@@ -377,7 +377,11 @@ fn resolve_unescaped(m: &Manifest, flat: &graph::FlatNetlist, read: &ReadData) -
 /// declaration, then the nesting: simulated over the first experiment's
 /// duration, at most [`NESTING_CHECK_SECONDS`], on the measured signals);
 /// errors name the manifest.
-fn user_effects(m: &Manifest, flat: &graph::FlatNetlist, experiments: &[crate::experiment::Experiment]) -> Result<Vec<crate::effects::UserEffect>, String> {
+fn user_effects(
+    m: &Manifest,
+    flat: &graph::FlatNetlist,
+    experiments: &[crate::experiment::Experiment],
+) -> Result<Vec<crate::effects::UserEffect>, String> {
     let file = if m.origin.is_empty() { "manifest" } else { m.origin.as_str() };
     let mut out: Vec<crate::effects::UserEffect> = Vec::new();
     let duration = experiments.first().and_then(|e| e.times.last().copied()).filter(|t| *t > 0.0).unwrap_or(1.0);
@@ -492,6 +496,46 @@ mod tests {
         .unwrap();
         let err = resolve(&bad, &flat, &read).unwrap_err();
         assert!(err.contains("friction.k0") && err.contains("not below"), "{err}");
+    }
+
+    #[test]
+    fn declared_effects_reach_the_options_and_their_errors_name_the_manifest() {
+        let flat = crate::netlist_edit::tests_support::meter_out();
+        let csv: String = std::iter::once("t,p1\n".to_string()).chain((0..200).map(|i| format!("{},{}\n", i as f64 * 1e-3, 1e5))).collect();
+        let read = |_: &str| -> Result<(String, String), String> { Ok((csv.clone(), "a.csv".into())) };
+        let with = |effects: &str| {
+            let text = format!(
+                r#"{{ "experiments": [ {{ "data": "a.csv", "columns": {{ "p1": "head.p" }}, "set": {{ "supply.p": "6 bar" }} }} ], "effects": [], "user_effects": [{effects}] }}"#
+            );
+            resolve(&parse(&text, "dir/m.json").unwrap(), &flat, &read)
+        };
+        let leak = r#"{ "name": "bypass", "components": [ { "id": "bypass", "type": "capillary" } ],
+                        "connections": [ ["head.port", "bypass.a"], ["bypass.b", "rod.port"] ],
+                        "free": { "bypass.k": { "null": 0, "start": "0.1 L/min/bar", "bounds": ["0 L/min/bar", "2 L/min/bar"], "prior": { "center": 0, "sd": "0.5 L/min/bar" } } } }"#;
+        let r = with(leak).unwrap();
+        assert_eq!(r.options.effects, Some(vec![]));
+        assert_eq!(r.options.user_effects.len(), 1);
+        let p = &r.options.user_effects[0].free[0].spec;
+        let lpm = 1e-3 / 60.0 / 1e5;
+        assert_eq!((p.name.as_str(), p.unit.as_str(), p.lo, p.null), ("bypass.k", "L/min/bar", 0.0, Some(0.0)));
+        let close = |a: f64, b: f64| (a / b - 1.0).abs() < 1e-12;
+        let (center, sd) = p.prior.unwrap();
+        assert!(close(p.hi, 2.0 * lpm) && close(p.start, 0.1 * lpm) && center == 0.0 && close(sd, 0.5 * lpm), "{p:?}");
+        // refusals: one line naming the manifest, the effect and what is wrong
+        let wrong_null = r#"{ "name": "more_volume", "free": { "head.dead_volume": { "null": "0 cm3", "start": "30 cm3", "bounds": ["0 cm3", "100 cm3"] } } }"#;
+        for (effects, words) in [
+            (format!("{leak}, {leak}"), "user effect \"bypass\" is declared twice"),
+            (leak.replace("\"2 L/min/bar\"", "\"3 bar\""), "user effect \"bypass\": free \"bypass.k\" upper bound"),
+            (leak.replace("\"bypass\", \"comp", "\"dead_volume\", \"comp"), "user effect \"dead_volume\": the name is a built-in effect's"),
+            (wrong_null.to_string(), "user effect \"more_volume\": the model does not return to the baseline"),
+        ] {
+            let err = with(&effects).unwrap_err();
+            assert!(err.starts_with("dir/m.json: ") && err.contains(words) && !err.contains('\n'), "{err}");
+        }
+        // an unknown key in a declaration is a parse error with its position
+        let err =
+            parse(r#"{ "experiments": [ { "data": "a.csv" } ], "user_effects": [ { "name": "x", "fre": {} } ] }"#, "m.json").unwrap_err();
+        assert!(err.to_string().starts_with("m.json:1:") && err.to_string().contains("fre"), "{err}");
     }
 
     #[test]

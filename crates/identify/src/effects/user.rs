@@ -10,7 +10,7 @@
 //!   "description": "laminar leak past the piston seal",
 //!   "components": [ { "id": "bypass", "type": "capillary" } ],
 //!   "connections": [ ["head.port", "bypass.a"], ["bypass.b", "rod.port"] ],
-//!   "free": { "bypass.k": { "null": 0, "start": "1e-13 m s", "bounds": ["0 m s", "1e-11 m s"] } } }
+//!   "free": { "bypass.k": { "null": "0 L/min/bar", "start": "0.1 L/min/bar", "bounds": ["0 L/min/bar", "2 L/min/bar"] } } }
 //! ```
 //!
 //! Values are parsed once, here, against the declared unit of the parameter
@@ -374,8 +374,7 @@ impl Effect for UserEffect {
         if self.at_null(values, |_| true) {
             return Ok(()); // the baseline: nothing added
         }
-        let omitted: Vec<&str> =
-            self.components.iter().filter(|c| self.at_null(values, |p| p.id == c.id)).map(|c| c.id.as_str()).collect();
+        let omitted: Vec<&str> = self.components.iter().filter(|c| self.at_null(values, |p| p.id == c.id)).map(|c| c.id.as_str()).collect();
         for c in self.components.iter().filter(|c| !omitted.contains(&c.id.as_str())) {
             if component(flat, &c.id).is_some() {
                 return Err(EffectError::new(&self.name, format!("component \"{}\" exists already", c.id)));
@@ -464,7 +463,10 @@ mod tests {
             (variant("\"5 L/min/bar\"", "\"5 bar\""), "upper bound"),
             (variant("\"seal_orifice\"", "\"piston_seal_leak\""), "built-in"),
             (variant("\"null\": \"0 L/min/bar\", ", ""), "\"null\""),
-            (variant("\"start\": \"0.2 L/min/bar\"", "\"start\": \"9 L/min/bar\""), "start 9 L/min/bar is outside the bounds [0 L/min/bar, 5 L/min/bar]"),
+            (
+                variant("\"start\": \"0.2 L/min/bar\"", "\"start\": \"9 L/min/bar\""),
+                "start 9 L/min/bar is outside the bounds [0 L/min/bar, 5 L/min/bar]",
+            ),
             (variant("\"start\": \"0.2 L/min/bar\"", "\"start\": \"0 L/min/bar\""), "start equals null"),
             (variant("\"id\": \"seal\"", "\"id\": \"head\""), "exists already"),
             (variant("\"bounds\"", "\"bound\""), "json"),
