@@ -337,7 +337,7 @@ impl UserEffect {
     }
 
     /// Whether every free parameter that has a null is at it, among `which`.
-    fn at_null<'a>(&self, values: &[f64], mut which: impl FnMut(&FreeParam) -> bool) -> bool {
+    fn at_null(&self, values: &[f64], mut which: impl FnMut(&FreeParam) -> bool) -> bool {
         let mut any = false;
         for (p, v) in self.free.iter().zip(values) {
             if let Some(n) = p.spec.null.filter(|_| which(p)) {
