@@ -899,7 +899,15 @@ impl FitContext<'_> {
             }
             Ok(r)
         };
-        let opts = LsqOptions { max_iter: 100, ftol: 1e-10, xtol: 1e-9, gtol: 1e-8, fd_rel_step: 1e-6, parallel: self.parallel };
+        let opts = LsqOptions {
+            max_iter: 100,
+            ftol: 1e-10,
+            xtol: 1e-9,
+            gtol: 1e-8,
+            fd_rel_step: 1e-6,
+            parallel: self.parallel,
+            final_jacobian: true,
+        };
         let res = least_squares(f, &x0, &Bounds::new(lo, hi), &opts)?;
         let se = res.std_errors.clone().unwrap_or_else(|| vec![f64::NAN; x0.len()]);
         let np = measured_p.len();

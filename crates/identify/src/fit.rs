@@ -17,9 +17,9 @@
 //! [`crate::stats::sandwich_covariance`], so that standard errors and
 //! confidence intervals account for correlated residuals.
 
-use crate::lsq::{least_squares, Bounds, LsqOptions};
+use crate::lsq::{least_squares_until, Bounds, GiveUp, LsqOptions};
 use crate::problem::Problem;
-use crate::stats::{sandwich_covariance, BlockStats};
+use crate::stats::{delta_ic, sandwich_covariance, BlockStats};
 
 /// Result of one fit.
 #[derive(Debug, Clone)]
@@ -63,11 +63,61 @@ pub struct FitOptions {
     /// (where a position residual stops growing with the timing error and
     /// the least-squares landscape gets local minima).
     pub horizons: Vec<f64>,
+    /// The screen's early stop on the last short-record stage (the
+    /// screening horizon), `None` = run every stage to its end.
+    pub screen: Option<ScreenStop>,
+    /// Standard errors wanted: when false, a fit ended by its iteration
+    /// limit does not compute the Jacobian at its last point, and `std_u`
+    /// and `cov_u` are `None`, and `jacobian` may be that of the previous
+    /// iterate (short-record stages, whose standard errors are never used;
+    /// [`crate::lsq::LsqOptions::final_jacobian`]).
+    pub covariance: bool,
 }
 
 impl Default for FitOptions {
     fn default() -> Self {
-        FitOptions { max_iter: 30, stage_max_iter: 30, ftol: 1e-8, fd_step: 1e-3, parallel: true, horizons: vec![0.15, 0.4, 1.0] }
+        FitOptions {
+            max_iter: 30,
+            stage_max_iter: 30,
+            ftol: 1e-8,
+            fd_step: 1e-3,
+            parallel: true,
+            horizons: vec![0.15, 0.4, 1.0],
+            screen: None,
+            covariance: true,
+        }
+    }
+}
+
+/// When a candidate's screening stage stops early: at an iterate where the
+/// fit has stalled short of the screen — the minimum of its Gauss–Newton
+/// model over the free parameters ([`crate::lsq::least_squares_until`])
+/// would lower the short-record ΔIC against the reference (block
+/// statistics on the screening horizon, `added` more parameters;
+/// [`crate::stats::delta_ic`]) by less than `stall` and leave it at or
+/// above `threshold`.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ScreenStop {
+    pub reference: BlockStats,
+    pub added: isize,
+    pub threshold: f64,
+    pub stall: f64,
+}
+
+impl ScreenStop {
+    /// ΔIC of residuals `r` of `problem` against the reference (`None` when the blocks differ).
+    fn delta(&self, problem: &Problem, r: &[f64]) -> Option<f64> {
+        let s = block_stats(problem, r);
+        (s.n == self.reference.n).then(|| delta_ic(&self.reference.chi2, &s.chi2, &s.n_eff(), self.added))
+    }
+
+    /// Whether the stage (`problem`) stops at an iterate with residuals `r`
+    /// and Gauss–Newton prospect `lin`.
+    fn stops(&self, problem: &Problem, r: &[f64], lin: &[f64]) -> bool {
+        match (self.delta(problem, r), self.delta(problem, lin)) {
+            (Some(now), Some(prospect)) => prospect >= self.threshold && now - prospect < self.stall,
+            _ => false,
+        }
     }
 }
 
@@ -117,6 +167,7 @@ pub fn fit_short_stages(problem: &Problem, start: &[f64], opts: &FitOptions) -> 
     let mut last = None;
     let short: Vec<f64> = opts.horizons.iter().copied().filter(|h| *h > 0.0 && *h < 1.0).collect();
     let shape: Vec<bool> = problem.params.iter().map(|p| p.is_effect() && p.null.is_none()).collect();
+    let screening = screen_horizon(opts);
     for &h in &short {
         let mut stage = problem.truncated(h);
         for (p, (&fixed, &v)) in stage.params.iter_mut().zip(shape.iter().zip(&values)) {
@@ -125,7 +176,14 @@ pub fn fit_short_stages(problem: &Problem, start: &[f64], opts: &FitOptions) -> 
                 p.hi = v;
             }
         }
-        let f = fit_once(&stage, &values, &FitOptions { max_iter: opts.stage_max_iter, ..opts.clone() })?;
+        let stage_opts = FitOptions { max_iter: opts.stage_max_iter, covariance: false, ..opts.clone() };
+        let f = match &opts.screen {
+            Some(stop) if Some(h) == screening => {
+                let test = |r: &[f64], lin: &[f64]| stop.stops(&stage, r, lin);
+                fit_once_until(&stage, &values, &stage_opts, Some(&test))?
+            }
+            _ => fit_once(&stage, &values, &stage_opts)?,
+        };
         spent += f.evaluations;
         values = f.values.clone();
         last = Some(f);
@@ -140,6 +198,11 @@ pub fn screen_horizon(opts: &FitOptions) -> Option<f64> {
 
 /// One least-squares fit starting from SI values `start`.
 pub fn fit_once(problem: &Problem, start: &[f64], opts: &FitOptions) -> Result<Fit, String> {
+    fit_once_until(problem, start, opts, None)
+}
+
+/// [`fit_once`] that stops early where `give_up` says so ([`crate::lsq::least_squares_until`]).
+pub fn fit_once_until(problem: &Problem, start: &[f64], opts: &FitOptions, give_up: Option<GiveUp>) -> Result<Fit, String> {
     let lo: Vec<f64> = problem.params.iter().map(|p| p.to_u(p.lo)).collect();
     let hi: Vec<f64> = problem.params.iter().map(|p| p.to_u(p.hi)).collect();
     let u0: Vec<f64> = problem.params.iter().zip(start).map(|(p, &v)| p.to_u(v.clamp(p.lo, p.hi))).collect();
@@ -164,13 +227,20 @@ pub fn fit_once(problem: &Problem, start: &[f64], opts: &FitOptions) -> Result<F
             message: "no parameters".into(),
         });
     }
-    let lsq_opts =
-        LsqOptions { max_iter: opts.max_iter, ftol: opts.ftol, xtol: 1e-8, gtol: 1e-8, fd_rel_step: opts.fd_step, parallel: opts.parallel };
-    let res = least_squares(f, &u0, &Bounds::new(lo.clone(), hi.clone()), &lsq_opts).map_err(|e| e.to_string())?;
+    let lsq_opts = LsqOptions {
+        max_iter: opts.max_iter,
+        ftol: opts.ftol,
+        xtol: 1e-8,
+        gtol: 1e-8,
+        fd_rel_step: opts.fd_step,
+        parallel: opts.parallel,
+        final_jacobian: opts.covariance,
+    };
+    let res = least_squares_until(f, &u0, &Bounds::new(lo.clone(), hi.clone()), &lsq_opts, give_up).map_err(|e| e.to_string())?;
     let values = problem.values_of(&res.x);
     let stats = block_stats(problem, &res.residuals);
     let ranges: Vec<_> = problem.blocks().into_iter().map(|b| b.rows).collect();
-    let cov_u = free_covariance(&res.jacobian, &lo, &hi, &stats, &ranges);
+    let cov_u = if opts.covariance { free_covariance(&res.jacobian, &lo, &hi, &stats, &ranges) } else { None };
     let std_u = cov_u.as_ref().map(|c| (0..c.nrows()).map(|i| c[(i, i)].max(0.0).sqrt()).collect());
     Ok(Fit {
         chi2: 2.0 * res.cost,

@@ -93,11 +93,24 @@ pub struct LsqOptions {
     pub fd_rel_step: f64,
     /// Evaluate Jacobian columns in parallel (rayon).
     pub parallel: bool,
+    /// Compute the Jacobian at the last point when the iteration limit ends
+    /// the run right after an accepted step (for the covariance). Without it
+    /// the result's `jacobian` and `covariance` are those of the previous
+    /// iterate (`x`, `cost` and `residuals` are the same either way).
+    pub final_jacobian: bool,
 }
 
 impl Default for LsqOptions {
     fn default() -> Self {
-        LsqOptions { max_iter: 200, ftol: 1e-10, xtol: 1e-10, gtol: 1e-10, fd_rel_step: f64::EPSILON.sqrt(), parallel: true }
+        LsqOptions {
+            max_iter: 200,
+            ftol: 1e-10,
+            xtol: 1e-10,
+            gtol: 1e-10,
+            fd_rel_step: f64::EPSILON.sqrt(),
+            parallel: true,
+            final_jacobian: true,
+        }
     }
 }
 
@@ -283,6 +296,24 @@ pub fn least_squares<F>(f: F, x0: &[f64], bounds: &Bounds, opts: &LsqOptions) ->
 where
     F: Fn(&[f64]) -> Result<Vec<f64>, String> + Sync,
 {
+    least_squares_until(f, x0, bounds, opts, None)
+}
+
+/// A test on the Gauss–Newton prospect of a fit: given the residuals `r`
+/// at the iterate and `r + J·h` at the minimiser h of the linear model
+/// `‖r + J·h‖²` over the free variables (bounds ignored, so at least as low
+/// as any step the iteration could take from here to first order), whether
+/// to stop.
+pub type GiveUp<'a> = &'a (dyn Fn(&[f64], &[f64]) -> bool + Sync);
+
+/// [`least_squares`] that also stops (not converged, message "given up")
+/// at an iterate where `give_up` says that even the Gauss–Newton model's
+/// minimum is not worth reaching (the screen of [`crate::candidates`]).
+/// Without it the iteration is that of [`least_squares`], step for step.
+pub fn least_squares_until<F>(f: F, x0: &[f64], bounds: &Bounds, opts: &LsqOptions, give_up: Option<GiveUp>) -> Result<LsqResult, LsqError>
+where
+    F: Fn(&[f64]) -> Result<Vec<f64>, String> + Sync,
+{
     let n = x0.len();
     if n == 0 {
         return Err(LsqError::BadInput("no parameters".into()));
@@ -367,6 +398,20 @@ where
         let b = DVector::from_fn(nf, |p, _| -g[free[p]]);
         let d2f: Vec<f64> = free.iter().map(|&j| d2[j]).collect();
         let dx_norm = x.iter().zip(&d2).map(|(v, d)| v * v * d).sum::<f64>().sqrt();
+        if let Some(stop) = give_up {
+            if let Some(hf) = damped_solve(&a, &d2f, 0.0, &b) {
+                let mut lin = r.clone();
+                for (p, &j) in free.iter().enumerate() {
+                    for (l, jv) in lin.iter_mut().zip(jac.column(j).iter()) {
+                        *l += jv * hf[p];
+                    }
+                }
+                if stop(&r, &lin) {
+                    message = "given up: the Gauss–Newton model's minimum does not pass the test".into();
+                    break 'outer;
+                }
+            }
+        }
 
         // Inner loop: try steps until one is accepted.
         loop {
@@ -414,8 +459,12 @@ where
                 cost = new_cost;
                 mu *= (1.0_f64 / 3.0).max(1.0 - (2.0 * rho - 1.0).powi(3));
                 nu = 2.0;
+                let cost_test = actual_rel <= opts.ftol && pred_rel <= opts.ftol;
+                if !opts.final_jacobian && !cost_test && iterations >= opts.max_iter {
+                    break 'outer;
+                }
                 jac = jacobian(&ev, &x, &r, bounds, opts)?;
-                if actual_rel <= opts.ftol && pred_rel <= opts.ftol {
+                if cost_test {
                     converged = true;
                     message = format!("cost test: relative reduction {actual_rel:.3e} <= ftol");
                     break 'outer;
@@ -575,6 +624,44 @@ mod tests {
         assert!((c[(1, 0)] / cov_ab - 1.0).abs() < 1e-6);
         let se = res.std_errors.expect("se");
         assert!((se[1] - var_b.sqrt()).abs() < 1e-6 * var_b.sqrt());
+    }
+
+    #[test]
+    fn without_the_final_jacobian_a_run_cut_by_the_limit_ends_at_the_same_point_with_fewer_evaluations() {
+        // Rosenbrock from the classic start needs more than 5 step attempts
+        let f = |x: &[f64]| Ok(vec![10.0 * (x[1] - x[0] * x[0]), 1.0 - x[0]]);
+        let with = LsqOptions { max_iter: 5, ..opts(false) };
+        let a = least_squares(f, &[-1.2, 1.0], &Bounds::unbounded(2), &with).expect("solve");
+        let b = least_squares(f, &[-1.2, 1.0], &Bounds::unbounded(2), &LsqOptions { final_jacobian: false, ..with }).expect("solve");
+        assert!(!a.converged && !b.converged);
+        assert_eq!((a.x.clone(), a.cost, a.residuals.clone()), (b.x.clone(), b.cost, b.residuals.clone()));
+        // the fifth attempt was accepted: its Jacobian (2 evaluations) is skipped
+        assert_eq!(a.evaluations, b.evaluations + 2, "{} {}", a.evaluations, b.evaluations);
+    }
+
+    #[test]
+    fn a_give_up_test_sees_the_gauss_newton_minimum_and_stops_the_run() {
+        // a linear problem: the Gauss–Newton minimum is the solution itself
+        let t: Vec<f64> = (0..10).map(|i| i as f64).collect();
+        let f = |p: &[f64]| Ok(t.iter().map(|ti| p[0] + p[1] * ti - (2.0 + 0.5 * ti)).collect());
+        let seen = std::sync::Mutex::new(Vec::new());
+        let stop = |r: &[f64], lin: &[f64]| {
+            assert_eq!(r.len(), lin.len());
+            seen.lock().unwrap().push(lin.iter().map(|v| v * v).sum::<f64>());
+            true
+        };
+        let res = least_squares_until(f, &[0.0, 0.0], &Bounds::unbounded(2), &opts(false), Some(&stop)).expect("fit");
+        assert!(!res.converged && res.message.starts_with("given up"), "{}", res.message);
+        assert_eq!(res.x, vec![0.0, 0.0]);
+        assert_eq!(res.evaluations, 3, "the start and its Jacobian only");
+        let seen = seen.into_inner().unwrap();
+        assert_eq!(seen.len(), 1);
+        assert!(seen[0] < 1e-12, "{seen:?}");
+        // a test that never fires leaves the run as it was
+        let never = |_: &[f64], _: &[f64]| false;
+        let a = least_squares(f, &[0.0, 0.0], &Bounds::unbounded(2), &opts(false)).expect("fit");
+        let b = least_squares_until(f, &[0.0, 0.0], &Bounds::unbounded(2), &opts(false), Some(&never)).expect("fit");
+        assert_eq!((a.x, a.evaluations, a.message), (b.x, b.evaluations, b.message));
     }
 
     #[test]

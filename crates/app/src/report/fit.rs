@@ -69,7 +69,7 @@ pub fn section(o: &Outcome, manifest_name: &str) -> String {
         models_tables(&mut h, "With the missing effect", &s.after);
     }
     h.push_str("<h3>Candidates</h3>\n");
-    let rows: Vec<Vec<String>> = s.candidates.iter().map(candidate_cells).collect();
+    let rows: Vec<Vec<String>> = s.candidates.iter().map(|c| candidate_cells(&s.candidates, c)).collect();
     if rows.is_empty() {
         h.push_str("<p>No candidate was tried.</p>\n");
     } else {
