@@ -181,10 +181,16 @@ fn shown(e: &Estimate, v: f64) -> String {
     }
 }
 
-/// An effect parameter value in the unit its effect declares ("0.3 L/min/bar").
-fn effect_value(effect: &str, param: &str, v: f64) -> String {
-    let unit = identify::effects::by_name(effect).and_then(|e| e.params().into_iter().find(|p| p.name == param)).map(|p| p.unit);
-    match unit.map(|u| (u, units::to_unit(v, u))) {
+/// An effect parameter value in the unit its effect declares ("0.3 L/min/bar"):
+/// a built-in's, else (a user-declared effect) the unit of its estimate
+/// among the candidates tried.
+fn effect_value(cands: &[Candidate], effect: &str, param: &str, v: f64) -> String {
+    let full = format!("{effect}.{param}");
+    let unit =
+        identify::effects::by_name(effect).and_then(|e| e.params().into_iter().find(|p| p.name == param)).map(|p| p.unit).or_else(|| {
+            cands.iter().filter(|c| c.effect == effect).flat_map(|c| &c.estimates).find(|e| e.name == full).map(|e| e.unit.clone())
+        });
+    match unit.as_deref().map(|u| (u, units::to_unit(v, u))) {
         Some((u, Ok(x))) if !u.is_empty() && x.is_finite() => format!("{} {u}", fmt(x)),
         _ => fmt(v),
     }
@@ -264,7 +270,8 @@ pub fn text_summary(o: &Outcome) -> String {
     let rm = |m: &ModelSummary| m.rmse_normalized.iter().map(|(k, v)| format!("{k} {v:.2}")).collect::<Vec<_>>().join(", ");
     let _ = writeln!(t, "baseline: normalised RMSE {} (1 = noise level); held-out {:.3}", rm(&s.baseline), s.baseline.heldout_rmse);
     for c in &s.candidates {
-        let params = c.params.iter().map(|(k, v)| format!("{k} = {}", effect_value(&c.effect, k, *v))).collect::<Vec<_>>().join(", ");
+        let params =
+            c.params.iter().map(|(k, v)| format!("{k} = {}", effect_value(&s.candidates, &c.effect, k, *v))).collect::<Vec<_>>().join(", ");
         let _ = writeln!(
             t,
             "  round {} {:<18} ΔIC {:>12} held-out {:>9} {} {}",
@@ -660,14 +667,14 @@ fn candidate_rows(md: &mut String, cands: &[Candidate]) {
     let _ = writeln!(md, "| round | effect | ΔIC | held-out RMSE | parameters | verdict |\n|---|---|---|---|---|---|");
     for c in cands {
         let params = if c.estimates.is_empty() {
-            c.params.iter().map(|(k, v)| format!("{k} = {}", effect_value(&c.effect, k, *v))).collect::<Vec<_>>().join(", ")
+            c.params.iter().map(|(k, v)| format!("{k} = {}", effect_value(cands, &c.effect, k, *v))).collect::<Vec<_>>().join(", ")
         } else {
             c.estimates
                 .iter()
                 .map(|e| {
                     format!(
                         "{} = {}{}",
-                        e.name.rsplit('.').next().unwrap_or(&e.name),
+                        e.name.split_once('.').map_or(e.name.as_str(), |(_, rest)| rest),
                         shown(e, e.value),
                         e.std_error.map(|s| format!(" ± {}", shown(e, s).split(' ').next().unwrap_or(""))).unwrap_or_default()
                     )
@@ -774,7 +781,7 @@ fn stage_report(
                     let full = format!("{}.{k}", sel.effect);
                     let ci = s.after.params.iter().find(|e| e.name == full).and_then(|e| e.ci95.map(|(a, b)| (e, a, b)));
                     let ci = ci.map(|(e, a, b)| format!(", 95 % interval [{}, {}]", shown(e, a), shown(e, b))).unwrap_or_default();
-                    format!("{k} = {}{ci}", effect_value(&sel.effect, k, *v))
+                    format!("{k} = {}{ci}", effect_value(&s.candidates, &sel.effect, k, *v))
                 })
                 .collect::<Vec<_>>()
                 .join("; ");
@@ -858,8 +865,8 @@ mod tests {
         assert_eq!(model_file("baseline"), "model_calibrated.json");
         assert_eq!(safe("4 bar, C=2"), "4_bar__C_2");
         assert_eq!(display("head.p").0, 1e-5);
-        assert_eq!(effect_value("piston_seal_leak", "C", 0.3e-3 / 60.0 / 1e5), "0.3 L/min/bar");
-        assert_eq!(effect_value("no_such_effect", "C", 2.5), "2.5");
+        assert_eq!(effect_value(&[], "piston_seal_leak", "C", 0.3e-3 / 60.0 / 1e5), "0.3 L/min/bar");
+        assert_eq!(effect_value(&[], "no_such_effect", "C", 2.5), "2.5");
         assert_eq!(noise_text("head.p", 500.0), "5 mbar");
         assert_eq!(noise_text("piston.x", 2e-5), "20 µm");
         let x = SensorEstimate {

@@ -248,6 +248,7 @@ fn to_json(lm: &LinearModel, modes: &[linear::modal::Mode]) -> serde_json::Value
         "operating_point": { "t": lm.t, "kind": match lm.kind { PointKind::Time => "time", PointKind::Rest => "rest", PointKind::Trim => "trim" },
                              "x0": lm.x0, "u0": lm.u0, "y0": lm.y0, "dx0": lm.dx0 },
         "method": lm.method.name(),
+        "finite_difference_blocks": lm.finite_difference_blocks,
         "states": named(&lm.states),
         "inputs": named(&lm.inputs),
         "outputs": named(&lm.outputs),
@@ -281,6 +282,9 @@ pub fn text(r: &Linearized) -> String {
         lm.t,
         lm.method.name()
     );
+    if !lm.finite_difference_blocks.is_empty() {
+        let _ = writeln!(s, "blocks differentiated by central differences (no partials): {}", lm.finite_difference_blocks.join(", "));
+    }
     let list = |v: &[linearize::Named]| v.iter().map(|n| format!("{} [{}]", n.name, n.unit)).collect::<Vec<_>>().join(", ");
     let _ = writeln!(s, "states ({}): {}", lm.states.len(), list(&lm.states));
     let _ = writeln!(s, "inputs ({}): {}", lm.inputs.len(), list(&lm.inputs));

@@ -404,6 +404,46 @@ mod tests {
         w
     }
 
+    /// The analysed and the written model simulate alike for 1.5 s, and the piston moves.
+    fn same_run(augmented: &FlatNetlist, written: &FlatNetlist) {
+        let s = identify::problem::SimSettings::default();
+        let run = |f: &FlatNetlist| identify::problem::simulate_netlist(f, 1.5, 2e-3, &s).expect("simulate");
+        let (a, b) = (run(augmented), run(written));
+        for (col, tol) in [("piston.x", 1e-6), ("head.p", 1.0), ("rod.T", 1e-3)] {
+            let (ya, yb) = (a.series(col).unwrap(), b.series(col).unwrap());
+            assert_eq!(ya.len(), yb.len());
+            let worst = ya.iter().zip(&yb).map(|(p, q)| (p.1 - q.1).abs()).fold(0.0, f64::max);
+            assert!(worst < tol, "{col}: {worst}");
+        }
+        let x_end = a.series("piston.x").unwrap().last().unwrap().1;
+        assert!(x_end > 0.05, "the run moves the piston: {x_end}");
+    }
+
+    #[test]
+    fn a_user_declared_effect_is_written_like_a_built_in() {
+        let (base, source) = meter_out();
+        let spec: identify::effects::user::UserEffectSpec = serde_json::from_str(
+            r#"{ "name": "seal_bypass", "components": [ { "id": "bypass", "type": "conductance", "params": { "b": 0.5 } } ],
+                 "connections": [ ["head.port", "bypass.a"], ["bypass.b", "rod.port"] ],
+                 "free": { "bypass.C": { "null": "0 L/min/bar", "start": "0.2 L/min/bar", "bounds": ["0 L/min/bar", "5 L/min/bar"] } } }"#,
+        )
+        .unwrap();
+        let effect = identify::effects::UserEffect::declare(&spec, &base).unwrap();
+        let mut augmented = base.clone();
+        set_param_si(&mut augmented, "friction", "k0", 13.25).unwrap();
+        effect.apply(&mut augmented, &[2.0e-3 / 60.0 / 1e5]).unwrap();
+        let json = user_netlist_json(&source, &augmented, "test.").expect("expressible");
+        let v: serde_json::Value = serde_json::from_str(&json).unwrap();
+        let bypass = v["components"].as_array().unwrap().iter().find(|c| c["id"] == "bypass").unwrap().clone();
+        assert_eq!((bypass["type"].as_str(), &bypass["params"]["b"]), (Some("conductance"), &serde_json::json!(0.5)));
+        assert_eq!(bypass["params"]["C"], "2 L/min/bar");
+        let conns = v["connections"].to_string();
+        assert!(conns.contains(r#"["head.port","bypass.a"]"#) && conns.contains(r#"["bypass.b","rod.port"]"#), "{conns}");
+        let (written, _) = Source::from_text(&json, &source.path).unwrap();
+        assert_eq!(warnings(&written), Vec::<String>::new());
+        same_run(&augmented, &written);
+    }
+
     #[test]
     fn the_users_netlist_is_kept_with_the_edits_written_in_units() {
         let (base, source) = meter_out();
@@ -426,17 +466,7 @@ mod tests {
         let flat_text = crate::discrepancy::netlist_json(&augmented, "flat".into()).unwrap();
         let (flat_written, _) = Source::from_text(&flat_text, &source.path).unwrap();
         assert!(warnings(&flat_written).len() >= 10, "the flat writer's warnings are what this replaces");
-        let s = identify::problem::SimSettings::default();
-        let run = |f: &FlatNetlist| identify::problem::simulate_netlist(f, 1.5, 2e-3, &s).expect("simulate");
-        let (a, b) = (run(&augmented), run(&written));
-        for (col, tol) in [("piston.x", 1e-6), ("head.p", 1.0), ("rod.T", 1e-3)] {
-            let (ya, yb) = (a.series(col).unwrap(), b.series(col).unwrap());
-            assert_eq!(ya.len(), yb.len());
-            let worst = ya.iter().zip(&yb).map(|(p, q)| (p.1 - q.1).abs()).fold(0.0, f64::max);
-            assert!(worst < tol, "{col}: {worst}");
-        }
-        let x_end = a.series("piston.x").unwrap().last().unwrap().1;
-        assert!(x_end > 0.05, "the run moves the piston: {x_end}");
+        same_run(&augmented, &written);
         // the parameters block still drives the model
         let changed = json.replacen("\"45 mm\"", "\"50 mm\"", 1);
         let (bigger, _) = Source::from_text(&changed, &source.path).unwrap();

@@ -42,6 +42,10 @@ impl Block for ExternalInput {
     fn signal_outputs(&self, _ctx: &Ctx, out: &mut [f64]) {
         out[0] = self.value;
     }
+    /// The value is a parameter, not a function of any input: all partials are zero.
+    fn partials(&self, _phase: Phase, _ctx: &Ctx, _b: &Balances, _d: &mut Partials) -> bool {
+        true
+    }
     fn live_parameters(&self) -> &'static [&'static str] {
         &[VALUE]
     }

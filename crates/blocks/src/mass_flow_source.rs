@@ -67,6 +67,16 @@ impl Block for MassFlowSource {
             _ => {}
         }
     }
+    /// Exact when the source is shut (a plug: no mass, no energy, whatever
+    /// the node does); with a flow the enthalpy's gas-law derivatives are
+    /// left to `solve`'s differences (false).
+    fn partials(&self, phase: Phase, _ctx: &Ctx, _b: &Balances, _d: &mut Partials) -> bool {
+        phase != Phase::Flows || self.mdot == 0.0
+    }
+    fn quadrature_partials(&self, _ctx: &Ctx, _b: &Balances, _derivs: &[f64], d: &mut Partials) -> bool {
+        d.set(Out::Quadrature(0), In::Mdot(0), -1.0);
+        true
+    }
     fn flows(&self, ctx: &Ctx, out: &mut [PortFlow]) {
         let node = ctx.pneumatic[0];
         let h = if self.mdot >= 0.0 { ctx.gas.enthalpy(ctx.gas.density(node.p, self.t), self.t) } else { node.h };

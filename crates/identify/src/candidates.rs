@@ -317,9 +317,11 @@ pub struct Pass {
     pub rescue: bool,
 }
 
-/// Short name of an effect parameter ("piston_seal_leak.C" → "C").
-fn short_name(p: &FitParam) -> String {
-    p.name.rsplit('.').next().unwrap_or(&p.name).to_string()
+/// Short name of an effect parameter: without the effect's name
+/// ("piston_seal_leak.C" → "C", a user effect's "bypass.leak.k" → "leak.k";
+/// effect names have no dot).
+pub fn short_name(p: &FitParam) -> String {
+    p.name.split_once('.').map_or(p.name.as_str(), |(_, rest)| rest).to_string()
 }
 
 /// Phase A (see the module header).
@@ -742,26 +744,28 @@ mod tests {
         fn params(&self) -> Vec<EffectParam> {
             vec![
                 EffectParam {
-                    name: "size",
-                    unit: "",
+                    name: "size".into(),
+                    unit: String::new(),
                     lo: 0.0,
                     hi: 1.0,
                     start: 0.5,
                     typical: 0.5,
                     null: Some(0.0),
+                    prior: None,
                     scale: Scale::Linear,
-                    scan: &[],
+                    scan: vec![],
                 },
                 EffectParam {
-                    name: "shape",
-                    unit: "",
+                    name: "shape".into(),
+                    unit: String::new(),
                     lo: 1.0,
                     hi: 3.0,
                     start: 2.0,
                     typical: 2.0,
                     null: None,
+                    prior: None,
                     scale: Scale::Linear,
-                    scan: &[],
+                    scan: vec![],
                 },
             ]
         }

@@ -45,6 +45,12 @@
 //!   quantity's default). "free" as `accuracy` leaves the offset without a
 //!   prior (the old behaviour).
 //!
+//! - `user_effects`: candidate effects of the user's own, declared as
+//!   netlist edits (components, connections, `set` values and `free`
+//!   parameters with bounds, `null`, optional prior); see
+//!   [`crate::effects::user`] and docs/discrepancy.md. They are tried with
+//!   the built-ins (which `effects` may restrict) and judged the same way.
+//!
 //! Unknown keys are errors; errors name the file, line and column.
 
 use graph::netlist::Value;
@@ -73,6 +79,12 @@ pub struct Manifest {
     pub nuisance: Option<NuisanceSpec>,
     #[serde(default)]
     pub sensors: BTreeMap<String, SensorSpec>,
+    /// Candidate effects declared as netlist edits ([`crate::effects::user`]).
+    #[serde(default)]
+    pub user_effects: Vec<crate::effects::user::UserEffectSpec>,
+    /// The file it was read from (set by [`parse`]; not part of the format).
+    #[serde(skip)]
+    pub origin: String,
 }
 
 /// One entry of the manifest's `sensors` section.
@@ -209,7 +221,7 @@ pub enum ManifestError {
 /// Parse manifest text; `origin` names the file in errors.
 pub fn parse(text: &str, origin: &str) -> Result<Manifest, ManifestError> {
     let text = text.strip_prefix('\u{feff}').unwrap_or(text);
-    let m: Manifest = serde_json::from_str(text).map_err(|e| ManifestError::Json {
+    let mut m: Manifest = serde_json::from_str(text).map_err(|e| ManifestError::Json {
         file: origin.to_string(),
         line: e.line(),
         column: e.column(),
@@ -218,6 +230,7 @@ pub fn parse(text: &str, origin: &str) -> Result<Manifest, ManifestError> {
     if m.experiments.is_empty() {
         return Err(ManifestError::Invalid { file: origin.into(), message: "\"experiments\" is empty".into() });
     }
+    m.origin = origin.to_string();
     Ok(m)
 }
 
@@ -335,6 +348,7 @@ fn resolve_unescaped(m: &Manifest, flat: &graph::FlatNetlist, read: &ReadData) -
     if let Some(names) = &m.effects {
         options.effects = Some(names.clone());
     }
+    options.user_effects = user_effects(m, flat, &experiments)?;
     if let Some(n) = m.max_effects {
         options.max_effects = n;
     }
@@ -358,6 +372,40 @@ fn resolve_unescaped(m: &Manifest, flat: &graph::FlatNetlist, read: &ReadData) -
     }
     Ok(Resolved { experiments, calibrate, options })
 }
+
+/// The manifest's declared effects, checked against the model (the
+/// declaration, then the nesting: simulated over the first experiment's
+/// duration, at most [`NESTING_CHECK_SECONDS`], on the measured signals);
+/// errors name the manifest.
+fn user_effects(
+    m: &Manifest,
+    flat: &graph::FlatNetlist,
+    experiments: &[crate::experiment::Experiment],
+) -> Result<Vec<crate::effects::UserEffect>, String> {
+    let file = if m.origin.is_empty() { "manifest" } else { m.origin.as_str() };
+    let mut out: Vec<crate::effects::UserEffect> = Vec::new();
+    let duration = experiments.first().and_then(|e| e.times.last().copied()).filter(|t| *t > 0.0).unwrap_or(1.0);
+    let mut measured: Vec<String> = experiments.iter().flat_map(|e| e.channels.iter().map(|c| c.signal.clone())).collect();
+    measured.sort();
+    measured.dedup();
+    // the nesting check runs at the first experiment's operating point
+    let mut probe = flat.clone();
+    for s in experiments.first().map(|e| e.sets.as_slice()).unwrap_or_default() {
+        graph::apply_set(&mut probe, s).map_err(|e| format!("{file}: {e}"))?;
+    }
+    for spec in &m.user_effects {
+        if out.iter().any(|u| u.name == spec.name) {
+            return Err(format!("{file}: user effect \"{}\" is declared twice", spec.name));
+        }
+        let effect = crate::effects::UserEffect::declare(spec, flat).map_err(|e| format!("{file}: {e}"))?;
+        effect.check_nested(&probe, duration.min(NESTING_CHECK_SECONDS), &measured).map_err(|e| format!("{file}: {e}"))?;
+        out.push(effect);
+    }
+    Ok(out)
+}
+
+/// Longest simulation of the nesting check of a declared effect [s].
+pub const NESTING_CHECK_SECONDS: f64 = 3.0;
 
 #[cfg(test)]
 mod tests {
@@ -448,6 +496,46 @@ mod tests {
         .unwrap();
         let err = resolve(&bad, &flat, &read).unwrap_err();
         assert!(err.contains("friction.k0") && err.contains("not below"), "{err}");
+    }
+
+    #[test]
+    fn declared_effects_reach_the_options_and_their_errors_name_the_manifest() {
+        let flat = crate::netlist_edit::tests_support::meter_out();
+        let csv: String = std::iter::once("t,p1\n".to_string()).chain((0..200).map(|i| format!("{},{}\n", i as f64 * 1e-3, 1e5))).collect();
+        let read = |_: &str| -> Result<(String, String), String> { Ok((csv.clone(), "a.csv".into())) };
+        let with = |effects: &str| {
+            let text = format!(
+                r#"{{ "experiments": [ {{ "data": "a.csv", "columns": {{ "p1": "head.p" }}, "set": {{ "supply.p": "6 bar" }} }} ], "effects": [], "user_effects": [{effects}] }}"#
+            );
+            resolve(&parse(&text, "dir/m.json").unwrap(), &flat, &read)
+        };
+        let leak = r#"{ "name": "bypass", "components": [ { "id": "bypass", "type": "capillary" } ],
+                        "connections": [ ["head.port", "bypass.a"], ["bypass.b", "rod.port"] ],
+                        "free": { "bypass.k": { "null": 0, "start": "0.1 L/min/bar", "bounds": ["0 L/min/bar", "2 L/min/bar"], "prior": { "center": 0, "sd": "0.5 L/min/bar" } } } }"#;
+        let r = with(leak).unwrap();
+        assert_eq!(r.options.effects, Some(vec![]));
+        assert_eq!(r.options.user_effects.len(), 1);
+        let p = &r.options.user_effects[0].free[0].spec;
+        let lpm = 1e-3 / 60.0 / 1e5;
+        assert_eq!((p.name.as_str(), p.unit.as_str(), p.lo, p.null), ("bypass.k", "L/min/bar", 0.0, Some(0.0)));
+        let close = |a: f64, b: f64| (a / b - 1.0).abs() < 1e-12;
+        let (center, sd) = p.prior.unwrap();
+        assert!(close(p.hi, 2.0 * lpm) && close(p.start, 0.1 * lpm) && center == 0.0 && close(sd, 0.5 * lpm), "{p:?}");
+        // refusals: one line naming the manifest, the effect and what is wrong
+        let wrong_null = r#"{ "name": "more_volume", "free": { "head.dead_volume": { "null": "0 cm3", "start": "30 cm3", "bounds": ["0 cm3", "100 cm3"] } } }"#;
+        for (effects, words) in [
+            (format!("{leak}, {leak}"), "user effect \"bypass\" is declared twice"),
+            (leak.replace("\"2 L/min/bar\"", "\"3 bar\""), "user effect \"bypass\": free \"bypass.k\" upper bound"),
+            (leak.replace("\"bypass\", \"comp", "\"dead_volume\", \"comp"), "user effect \"dead_volume\": the name is a built-in effect's"),
+            (wrong_null.to_string(), "user effect \"more_volume\": the model does not return to the baseline"),
+        ] {
+            let err = with(&effects).unwrap_err();
+            assert!(err.starts_with("dir/m.json: ") && err.contains(words) && !err.contains('\n'), "{err}");
+        }
+        // an unknown key in a declaration is a parse error with its position
+        let err =
+            parse(r#"{ "experiments": [ { "data": "a.csv" } ], "user_effects": [ { "name": "x", "fre": {} } ] }"#, "m.json").unwrap_err();
+        assert!(err.to_string().starts_with("m.json:1:") && err.to_string().contains("fre"), "{err}");
     }
 
     #[test]

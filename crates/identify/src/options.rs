@@ -90,8 +90,10 @@ pub struct Options {
     pub thresholds: Thresholds,
     /// At most this many effects are added.
     pub max_effects: usize,
-    /// Restrict the catalogue to these names.
+    /// Restrict the built-in catalogue to these names.
     pub effects: Option<Vec<String>>,
+    /// Effects declared in the manifest, always tried with the catalogue's.
+    pub user_effects: Vec<crate::effects::UserEffect>,
     /// Compute full-resolution traces and diagnostics.
     pub report: bool,
     /// Step attempts of a candidate's short-record (screening) stages.
@@ -125,6 +127,7 @@ impl Default for Options {
             thresholds: Thresholds::default(),
             max_effects: 2,
             effects: None,
+            user_effects: Vec::new(),
             report: true,
             screen_iter: 8,
             starts: 2,

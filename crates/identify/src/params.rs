@@ -330,7 +330,7 @@ pub fn effect_params(effect: &dyn Effect, slot: usize) -> Vec<FitParam> {
         .enumerate()
         .map(|(k, p)| FitParam {
             name: format!("{}.{}", effect.name(), p.name),
-            unit: p.unit.to_string(),
+            unit: p.unit.clone(),
             lo: p.lo,
             hi: p.hi,
             start: p.start,
@@ -338,7 +338,7 @@ pub fn effect_params(effect: &dyn Effect, slot: usize) -> Vec<FitParam> {
             scale: p.scale,
             null: p.null,
             target: Target::Effect { slot, k },
-            prior: None,
+            prior: p.prior.map(|(center, sd)| Prior { center, sd }),
         })
         .collect()
 }

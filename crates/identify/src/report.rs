@@ -489,7 +489,7 @@ pub fn verdict(
                 let v = e.shown.unwrap_or(e.value);
                 let unit = if e.shown.is_some() { e.unit.as_str() } else { "" };
                 let se = e.std_error.and_then(|s| if e.shown.is_some() { units::to_unit(s, &e.unit).ok() } else { Some(s) });
-                let name = e.name.rsplit('.').next().unwrap_or(&e.name);
+                let name = e.name.split_once('.').map_or(e.name.as_str(), |(_, rest)| rest);
                 match se {
                     Some(se) if se.is_finite() => {
                         format!("{name} {} ± {} {unit}", crate::params::significant(v, 3), crate::params::significant(se, 2))

@@ -511,7 +511,7 @@ pub fn search<'a>(
                     .iter()
                     .zip(&s.fit.values)
                     .filter(|(p, _)| matches!(p.target, Target::Effect { slot: k, .. } if k == slot))
-                    .map(|(p, v)| (p.name.rsplit('.').next().unwrap_or(&p.name).to_string(), *v))
+                    .map(|(p, v)| (crate::candidates::short_name(p), *v))
                     .collect();
                 out.selected.push(Selected { effect: c.effect.clone(), params });
                 path.push(current);

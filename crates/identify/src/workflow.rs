@@ -47,15 +47,21 @@ pub fn run(base: &FlatNetlist, experiments: &[Experiment], calibrate: &[CalibSpe
         return Err(IdentifyError::Setup("no experiments".into()));
     }
     let all = catalogue();
+    let declared = |n: &str| opts.user_effects.iter().any(|u| u.name == n);
     if let Some(names) = &opts.effects {
         for n in names {
-            if !all.iter().any(|e| e.name() == n) {
+            if !all.iter().any(|e| e.name() == n) && !declared(n) {
                 return Err(IdentifyError::Setup(format!("unknown effect \"{n}\" (known: {})", crate::effects::names().join(", "))));
             }
         }
     }
-    let pool: Vec<&dyn Effect> =
-        all.iter().map(|e| e.as_ref()).filter(|e| opts.effects.as_ref().is_none_or(|v| v.iter().any(|n| n == e.name()))).collect();
+    // the built-ins `effects` names (all by default), then every declared effect
+    let pool: Vec<&dyn Effect> = all
+        .iter()
+        .map(|e| e.as_ref())
+        .filter(|e| opts.effects.as_ref().is_none_or(|v| v.iter().any(|n| n == e.name())))
+        .chain(opts.user_effects.iter().map(|u| u as &dyn Effect))
+        .collect();
     // every channel gets its sensor prior (the default of its quantity unless given)
     let units = crate::manifest::signal_units(base).map_err(IdentifyError::Setup)?;
     let mut owned = experiments.to_vec();

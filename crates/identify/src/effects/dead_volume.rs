@@ -16,17 +16,18 @@ use graph::FlatNetlist;
 #[derive(Debug, Clone, Copy, Default)]
 pub struct DeadVolume;
 
-fn param(name: &'static str) -> EffectParam {
+fn param(name: &str) -> EffectParam {
     EffectParam {
-        name,
-        unit: "cm3",
+        name: name.into(),
+        unit: "cm3".into(),
         lo: 0.0,
         hi: 200e-6,
         start: 5e-6,
         typical: 20e-6,
         null: Some(0.0),
+        prior: None,
         scale: Scale::Linear,
-        scan: &[0.0, 10e-6, 40e-6],
+        scan: vec![0.0, 10e-6, 40e-6],
     }
 }
 

@@ -33,15 +33,16 @@ impl Effect for HeatTransfer {
     }
     fn params(&self) -> Vec<EffectParam> {
         vec![EffectParam {
-            name: "rate",
-            unit: "1/s",
+            name: "rate".into(),
+            unit: "1/s".into(),
             lo: 0.0,
             hi: 50.0,
             start: 0.3,
             typical: 1.0,
             null: Some(0.0),
+            prior: None,
             scale: Scale::Linear,
-            scan: &[0.1, 0.3, 1.0, 3.0, 10.0],
+            scan: vec![0.1, 0.3, 1.0, 3.0, 10.0],
         }]
     }
     fn applies_to(&self, flat: &FlatNetlist) -> bool {

@@ -17,6 +17,9 @@
 //! | `supply_droop` | finite supply line: conductance + volume before the valve | C_line (∞ ≙ upper bound), V_line |
 //! | `real_gas` | virial equation of state (paper Eq. 12–14) | — |
 //!
+//! Besides these built-ins, an experiments manifest may declare its own
+//! effects as netlist edits ([`user`]); they are tried and judged the same way.
+//!
 //! Units: every parameter value is SI; `unit` is only the unit shown to people.
 
 use graph::FlatNetlist;
@@ -27,6 +30,7 @@ mod piston_seal_leak;
 mod real_gas;
 mod stribeck_friction;
 mod supply_droop;
+pub mod user;
 mod valve_delay;
 
 pub use dead_volume::DeadVolume;
@@ -35,6 +39,7 @@ pub use piston_seal_leak::PistonSealLeak;
 pub use real_gas::RealGas;
 pub use stribeck_friction::StribeckFriction;
 pub use supply_droop::SupplyDroop;
+pub use user::UserEffect;
 pub use valve_delay::ValveDelay;
 
 /// How a parameter is scaled inside the fit.
@@ -49,9 +54,9 @@ pub enum Scale {
 /// One parameter of an effect.
 #[derive(Debug, Clone, PartialEq)]
 pub struct EffectParam {
-    pub name: &'static str,
+    pub name: String,
     /// Unit shown in reports ("L/min/bar"); values are SI.
-    pub unit: &'static str,
+    pub unit: String,
     /// Bounds [SI].
     pub lo: f64,
     pub hi: f64,
@@ -62,10 +67,13 @@ pub struct EffectParam {
     /// Value at which the effect vanishes; `None` for a shape parameter that
     /// only matters when another one is away from its null.
     pub null: Option<f64>,
+    /// Gaussian prior (center, sd) [SI] on the fit coordinate, if any (see
+    /// [`crate::params`]); only user-declared effects set one.
+    pub prior: Option<(f64, f64)>,
     pub scale: Scale,
     /// Values tried when looking for a starting point (the fit starts from
     /// the best point of the grid formed by all parameters' scan values).
-    pub scan: &'static [f64],
+    pub scan: Vec<f64>,
 }
 
 /// The starting-point grid of an effect: every combination of its
@@ -73,7 +81,7 @@ pub struct EffectParam {
 pub fn scan_grid(params: &[EffectParam]) -> Vec<Vec<f64>> {
     let mut grid: Vec<Vec<f64>> = vec![vec![]];
     for p in params {
-        let values: Vec<f64> = if p.scan.is_empty() { vec![p.start] } else { p.scan.to_vec() };
+        let values: Vec<f64> = if p.scan.is_empty() { vec![p.start] } else { p.scan.clone() };
         grid = grid
             .iter()
             .flat_map(|g| {
@@ -107,9 +115,9 @@ impl EffectError {
 /// A candidate missing effect.
 pub trait Effect: Send + Sync + std::fmt::Debug {
     /// Name used in reports and on the command line ("piston_seal_leak").
-    fn name(&self) -> &'static str;
+    fn name(&self) -> &str;
     /// One line: what the effect is physically.
-    fn summary(&self) -> &'static str;
+    fn summary(&self) -> &str;
     /// Parameters with bounds and null values (possibly none).
     fn params(&self) -> Vec<EffectParam>;
     /// Whether the effect makes sense for this netlist (components present,
@@ -138,9 +146,9 @@ pub fn by_name(name: &str) -> Option<Box<dyn Effect>> {
     catalogue().into_iter().find(|e| e.name() == name)
 }
 
-/// Names of all effects, for messages.
-pub fn names() -> Vec<&'static str> {
-    catalogue().iter().map(|e| e.name()).collect()
+/// Names of all built-in effects, for messages.
+pub fn names() -> Vec<String> {
+    catalogue().iter().map(|e| e.name().to_string()).collect()
 }
 
 pub(crate) fn check_len(effect: &dyn Effect, values: &[f64]) -> Result<(), EffectError> {
@@ -189,7 +197,7 @@ pub(crate) mod tests {
     #[test]
     fn names_are_unique_and_params_consistent() {
         let cat = catalogue();
-        let mut names: Vec<_> = cat.iter().map(|e| e.name()).collect();
+        let mut names: Vec<_> = cat.iter().map(|e| e.name().to_string()).collect();
         names.sort();
         names.dedup();
         assert_eq!(names.len(), cat.len());
@@ -212,16 +220,17 @@ pub(crate) mod tests {
 
     #[test]
     fn the_scan_grid_is_the_product_without_the_null_point() {
-        let p = |name, null, scan| EffectParam {
-            name,
-            unit: "",
+        let p = |name: &str, null, scan: &[f64]| EffectParam {
+            name: name.into(),
+            unit: String::new(),
             lo: 0.0,
             hi: 10.0,
             start: 1.0,
             typical: 1.0,
             null,
+            prior: None,
             scale: Scale::Linear,
-            scan,
+            scan: scan.to_vec(),
         };
         let g = scan_grid(&[p("a", Some(0.0), &[0.0, 1.0, 2.0]), p("b", Some(0.0), &[0.0, 5.0])]);
         assert_eq!(g, vec![vec![0.0, 5.0], vec![1.0, 0.0], vec![1.0, 5.0], vec![2.0, 0.0], vec![2.0, 5.0]]);

@@ -53,26 +53,28 @@ impl Effect for PistonSealLeak {
     fn params(&self) -> Vec<EffectParam> {
         vec![
             EffectParam {
-                name: "C",
-                unit: "L/min/bar",
+                name: "C".into(),
+                unit: "L/min/bar".into(),
                 lo: 0.0,
                 hi: 5.0 * L_MIN_BAR,
                 start: 0.2 * L_MIN_BAR,
                 typical: 0.5 * L_MIN_BAR,
                 null: Some(0.0),
+                prior: None,
                 scale: Scale::Linear,
-                scan: &[0.03 * L_MIN_BAR, 0.1 * L_MIN_BAR, 0.3 * L_MIN_BAR, 1.0 * L_MIN_BAR, 3.0 * L_MIN_BAR],
+                scan: vec![0.03 * L_MIN_BAR, 0.1 * L_MIN_BAR, 0.3 * L_MIN_BAR, 1.0 * L_MIN_BAR, 3.0 * L_MIN_BAR],
             },
             EffectParam {
-                name: "law",
-                unit: "",
+                name: "law".into(),
+                unit: "".into(),
                 lo: 0.0,
                 hi: 2.0,
                 start: 0.0,
                 typical: 1.0,
                 null: None,
+                prior: None,
                 scale: Scale::Linear,
-                scan: &[0.0, 1.0, 2.0],
+                scan: vec![0.0, 1.0, 2.0],
             },
         ]
     }

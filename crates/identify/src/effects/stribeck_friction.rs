@@ -27,26 +27,28 @@ impl Effect for StribeckFriction {
     fn params(&self) -> Vec<EffectParam> {
         vec![
             EffectParam {
-                name: "breakaway_ratio",
-                unit: "",
+                name: "breakaway_ratio".into(),
+                unit: "".into(),
                 lo: 1.0,
                 hi: 5.0,
                 start: 1.3,
                 typical: 1.0,
                 null: Some(1.0),
+                prior: None,
                 scale: Scale::Linear,
-                scan: &[1.5, 2.0, 3.0, 4.0],
+                scan: vec![1.5, 2.0, 3.0, 4.0],
             },
             EffectParam {
-                name: "stribeck_velocity",
-                unit: "mm/s",
+                name: "stribeck_velocity".into(),
+                unit: "mm/s".into(),
                 lo: 1e-3,
                 hi: 0.3,
                 start: 0.02,
                 typical: 0.02,
                 null: None,
+                prior: None,
                 scale: Scale::Log,
-                scan: &[0.005, 0.02, 0.08],
+                scan: vec![0.005, 0.02, 0.08],
             },
         ]
     }

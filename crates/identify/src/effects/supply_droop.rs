@@ -33,26 +33,28 @@ impl Effect for SupplyDroop {
     fn params(&self) -> Vec<EffectParam> {
         vec![
             EffectParam {
-                name: "C_line",
-                unit: "L/min/bar",
+                name: "C_line".into(),
+                unit: "L/min/bar".into(),
                 lo: 20.0 * L_MIN_BAR,
                 hi: 20_000.0 * L_MIN_BAR,
                 start: 300.0 * L_MIN_BAR,
                 typical: 300.0 * L_MIN_BAR,
                 null: Some(20_000.0 * L_MIN_BAR),
+                prior: None,
                 scale: Scale::Log,
-                scan: &[1000.0 * L_MIN_BAR, 300.0 * L_MIN_BAR, 100.0 * L_MIN_BAR, 40.0 * L_MIN_BAR],
+                scan: vec![1000.0 * L_MIN_BAR, 300.0 * L_MIN_BAR, 100.0 * L_MIN_BAR, 40.0 * L_MIN_BAR],
             },
             EffectParam {
-                name: "V_line",
-                unit: "L",
+                name: "V_line".into(),
+                unit: "L".into(),
                 lo: 1e-5,
                 hi: 1e-2,
                 start: 3e-4,
                 typical: 3e-4,
                 null: None,
+                prior: None,
                 scale: Scale::Log,
-                scan: &[5e-5, 5e-4, 3e-3],
+                scan: vec![5e-5, 5e-4, 3e-3],
             },
         ]
     }

@@ -27,15 +27,16 @@ impl Effect for ValveDelay {
     }
     fn params(&self) -> Vec<EffectParam> {
         vec![EffectParam {
-            name: "T",
-            unit: "ms",
+            name: "T".into(),
+            unit: "ms".into(),
             lo: 0.0,
             hi: 0.2,
             start: 0.005,
             typical: 0.02,
             null: Some(0.0),
+            prior: None,
             scale: Scale::Linear,
-            scan: &[0.002, 0.005, 0.01, 0.02, 0.05],
+            scan: vec![0.002, 0.005, 0.01, 0.02, 0.05],
         }]
     }
     fn applies_to(&self, flat: &FlatNetlist) -> bool {

@@ -72,7 +72,7 @@ class Linearization:
         self.dx0 = np.array(op["dx0"], dtype=float)
         #: "rest" or "time".
         self.kind: str = op["kind"]
-        #: How the derivatives were taken ("central differences", ...).
+        #: How the derivatives were taken ("exact state Jacobian (block partials); ...", "central differences").
         self.method: str = j["method"]
         #: ``{node id: the mode its linear model belongs to}`` (sliding, stuck, on an end stop).
         self.mechanics: Dict[str, str] = {n["id"]: n["mode"] for n in j["mechanics"]}

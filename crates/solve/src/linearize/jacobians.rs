@@ -7,18 +7,25 @@
 //! pressure, an external force, or the value of a signal source), y the
 //! recorded values the caller names (result columns).
 //!
-//! Method today: central differences, h_j = ε^{1/3}·max(|x_j|, s_j) with
+//! ∂f/∂x is exact where the model has a structure ([`Structure::new`]): the
+//! chain rule over the blocks' partial derivatives with implicit
+//! differentiation through the junction solves ([`crate::exact`]); a block
+//! without partials for a phase is differentiated alone by central
+//! differences of that phase, and [`Jacobians::finite_difference_blocks`]
+//! names it. ∂f/∂u, ∂y/∂x and ∂y/∂u (and ∂f/∂x of a model without a
+//! structure) are central differences, h_j = ε^{1/3}·max(|x_j|, s_j) with
 //! s_j the state's typical size, each evaluation detached from the run (the
 //! junction solver's warm starts restored, so every difference starts the
 //! algebraic solve from the same guess). Truncation and rounding are each
 //! about 1e-10 relative; through a junction solve (solved to 1e-13
-//! relative) the entries it touches carry up to ~1e-8. The exact Jacobian
-//! (the chain rule over the blocks' partial derivatives, with implicit
-//! differentiation through the junction solves) replaces the state columns
-//! when it is available; `Method` names what produced a result.
+//! relative) the entries it touches carry up to ~1e-8. [`Method`] names
+//! what produced a result; [`central_differences`] is the all-differences
+//! path, kept as the fallback and as the check of the exact one.
 
 use super::LinearizeError;
-use crate::model::{Model, ModelError};
+use crate::exact::Exact;
+use crate::jacobian::Structure;
+use crate::model::{Model, ModelError, WarmStart};
 use linear::Matrix;
 
 /// How the derivatives were formed.
@@ -26,12 +33,16 @@ use linear::Matrix;
 pub enum Method {
     /// Central differences of the whole model (see the module documentation).
     CentralDifferences,
+    /// ∂f/∂x exact (chain rule over the blocks' partials), ∂f/∂u, ∂y/∂x and
+    /// ∂y/∂u by central differences.
+    ExactStates,
 }
 
 impl Method {
     pub fn name(self) -> &'static str {
         match self {
             Method::CentralDifferences => "central differences",
+            Method::ExactStates => "exact state Jacobian (block partials); central differences for inputs and outputs",
         }
     }
 }
@@ -45,6 +56,9 @@ pub struct Jacobians {
     pub c: Matrix,
     pub d: Matrix,
     pub method: Method,
+    /// Blocks the exact ∂f/∂x differentiated alone by central differences
+    /// (no partials for some phase); empty with [`Method::CentralDifferences`].
+    pub finite_difference_blocks: Vec<String>,
 }
 
 /// Relative step of the central differences (ε^{1/3}).
@@ -66,8 +80,46 @@ pub fn recorded(model: &mut Model, t: f64, y: &[f64], columns: &[usize]) -> Resu
 }
 
 /// Derivatives at (t, y) and the model's current input values, for the
-/// state `columns` and recorded `outputs`. The inputs are restored afterwards.
+/// state `columns` and recorded `outputs`: ∂f/∂x exact where the model has
+/// a structure, the rest by central differences (see the module
+/// documentation). The inputs and the junction warm starts are restored.
 pub fn jacobians(model: &mut Model, t: f64, y: &[f64], columns: &[usize], outputs: &[usize]) -> Result<Jacobians, LinearizeError> {
+    let mut j = central_differences(model, t, y, columns, outputs)?;
+    let Some(structure) = Structure::new(model) else { return Ok(j) };
+    let mut exact = Exact::new(model, structure.pattern().clone());
+    let mut values = vec![0.0; exact.pattern().nnz()];
+    let mut warm = WarmStart::default();
+    model.save_warm_start_into(&mut warm);
+    // the last evaluation may be at other input values (set_input keeps it)
+    model.forget_last_evaluation();
+    let filled = exact.fill(model, t, y, &mut values);
+    model.restore_warm_start_from(&warm);
+    model.forget_last_evaluation();
+    filled?;
+    let pattern = exact.pattern();
+    for (col, &c) in columns.iter().enumerate() {
+        for i in 0..model.n_states {
+            j.a[(i, col)] = 0.0;
+        }
+        for (p, &i) in pattern.column(c).iter().enumerate() {
+            if i < model.n_states {
+                j.a[(i, col)] = values[pattern.column_range(c).start + p];
+            }
+        }
+    }
+    j.method = Method::ExactStates;
+    j.finite_difference_blocks = exact.fallback_blocks(model);
+    Ok(j)
+}
+
+/// Every derivative by central differences (the fallback of [`jacobians`]).
+pub fn central_differences(
+    model: &mut Model,
+    t: f64,
+    y: &[f64],
+    columns: &[usize],
+    outputs: &[usize],
+) -> Result<Jacobians, LinearizeError> {
     let n = model.n_states;
     let m = model.n_inputs();
     let p = outputs.len();
@@ -108,5 +160,5 @@ pub fn jacobians(model: &mut Model, t: f64, y: &[f64], columns: &[usize], output
             d[(i, k)] = (g_plus[i] - g_minus[i]) / (2.0 * h);
         }
     }
-    Ok(Jacobians { a, b, c, d, method: Method::CentralDifferences })
+    Ok(Jacobians { a, b, c, d, method: Method::CentralDifferences, finite_difference_blocks: Vec::new() })
 }

@@ -133,6 +133,8 @@ pub struct LinearModel {
     pub skipped_outputs: Vec<(String, String)>,
     pub trim: Option<trim::TrimReport>,
     pub method: jacobians::Method,
+    /// Blocks whose part of A came from differences (see [`jacobians::Jacobians`]).
+    pub finite_difference_blocks: Vec<String>,
 }
 
 /// Why no linear model could be made.
@@ -388,5 +390,6 @@ pub fn linearize(model: &mut Model, op: &OperatingPoint, opts: &Options) -> Resu
         skipped_outputs: skipped,
         trim: op.trim.clone(),
         method: j.method,
+        finite_difference_blocks: j.finite_difference_blocks,
     })
 }
