@@ -4,9 +4,13 @@
 //! mode of every mechanical node, and Bode data, written to a directory as
 //! one transaction.
 //!
-//! Operating points: `rest` (the netlist's start state) or `t=1.2 s` (the
+//! Operating points: `rest` (the netlist's start state), `t=1.2 s` (the
 //! netlist run by itself to that time, its state carried into the model
-//! driven from outside, see `solve::linearize::point`). Inputs and outputs
+//! driven from outside, see `solve::linearize::point`) or a trim,
+//! `NAME=VALUE` conditions separated by `;` or `,` (`piston.x=200 mm;
+//! F=0 N; head.p=4 bar`: states, interface inputs, recorded values, each
+//! value in a unit of its own dimension), solved from the netlist's start
+//! state by `solve::linearize::trim`. Inputs and outputs
 //! are the netlist's interface section. The derivatives are central
 //! differences of the model's rates through one seam
 //! (`solve::linearize::jacobians::jacobians`), to be replaced by exact
@@ -27,7 +31,7 @@ pub struct LinearizeOptions {
     pub model: PathBuf,
     /// Overrides `ID.PARAM=VALUE`, applied in order.
     pub sets: Vec<String>,
-    /// "rest" or "t=1.2 s".
+    /// "rest", "t=1.2 s" or a trim "piston.x=200 mm; F=0 N; head.p=4 bar".
     pub at: String,
     /// Directory for A.csv, B.csv, C.csv, D.csv, modes.csv, bode.csv, linear.json.
     pub out: Option<PathBuf>,
@@ -51,6 +55,8 @@ fn data(e: impl std::fmt::Display) -> AppError {
 enum At {
     Rest,
     Time(f64),
+    /// Trim conditions (name, value text), as written.
+    Trim(Vec<(String, String)>),
 }
 
 fn parse_at(text: &str) -> Result<At, AppError> {
@@ -63,7 +69,45 @@ fn parse_at(text: &str) -> Result<At, AppError> {
             .map_err(|e| AppError::Usage(format!("operating point \"{}\": {e}", graph::escape(text))))?;
         return Ok(At::Time(v));
     }
-    Err(AppError::Usage(format!("operating point \"{}\": expected rest or t=TIME (e.g. \"t=1.2 s\")", graph::escape(text))))
+    if t.contains('=') {
+        let mut conditions = Vec::new();
+        for part in t.split([';', ',']).map(str::trim).filter(|p| !p.is_empty()) {
+            match part.split_once('=') {
+                Some((name, value)) if !name.trim().is_empty() && !value.trim().is_empty() => {
+                    conditions.push((name.trim().to_string(), value.trim().to_string()))
+                }
+                _ => {
+                    return Err(AppError::Usage(format!(
+                        "operating point \"{}\": \"{}\" is not NAME=VALUE",
+                        graph::escape(text),
+                        graph::escape(part)
+                    )))
+                }
+            }
+        }
+        return Ok(At::Trim(conditions));
+    }
+    Err(AppError::Usage(format!(
+        "operating point \"{}\": expected rest, t=TIME (e.g. \"t=1.2 s\") or trim conditions NAME=VALUE; ... (e.g. \"piston.x=200 mm; F=0 N; head.p=4 bar\")",
+        graph::escape(text)
+    )))
+}
+
+/// The trim conditions resolved against `model`: each name a state, an
+/// interface input or a recorded value, each value parsed in its dimension.
+fn trim_constraints(model: &solve::Model, conditions: &[(String, String)]) -> Result<Vec<linearize::trim::Constraint>, AppError> {
+    conditions
+        .iter()
+        .map(|(name, value)| {
+            let shown = || format!("trim condition {}={}", graph::escape(name), graph::escape(value));
+            let (target, unit) = linearize::trim::target(model, name).ok_or_else(|| {
+                AppError::Usage(format!("{}: no state, interface input or recorded value is called \"{}\"", shown(), graph::escape(name)))
+            })?;
+            let dimension = units::parse_unit(&unit).map(|u| u.dimension).unwrap_or(units::dim::DIMENSIONLESS);
+            let value = units::parse_quantity(value, dimension).map_err(|e| AppError::Usage(format!("{}: {e}", shown())))?;
+            Ok(linearize::trim::Constraint { name: name.clone(), target, value })
+        })
+        .collect()
 }
 
 /// Linearise the netlist of `o` and write the outputs (all or none).
@@ -113,6 +157,11 @@ fn linearize_at(flat: &graph::FlatNetlist, at: At, keep_all_states: bool) -> Res
             let circuit = graph::build(flat)?;
             let opts = solve::options_from(&circuit.simulation)?;
             linearize::point::at_time(solve::Model::new(circuit), &mut driven, &opts, t).map_err(data)?
+        }
+        At::Trim(conditions) => {
+            let constraints = trim_constraints(&driven, &conditions)?;
+            let guess = driven.initial_state();
+            linearize::trim::trim(&mut driven, &guess, &constraints, linearize::Friction::default()).map_err(data)?
         }
     };
     let lm = linearize::linearize(&mut driven, &op, &Options { keep_all_states, ..Options::default() }).map_err(data)?;
@@ -212,6 +261,13 @@ fn to_json(lm: &LinearModel, modes: &[linear::modal::Mode]) -> serde_json::Value
         "mechanics": lm.mechanics.iter().map(|n| serde_json::json!({ "id": n.id, "mode": n.description })).collect::<Vec<_>>(),
         "left_out": lm.left_out.iter().map(|(s, why)| serde_json::json!({ "state": s, "why": why })).collect::<Vec<_>>(),
         "skipped_outputs": lm.skipped_outputs.iter().map(|(s, why)| serde_json::json!({ "output": s, "why": why })).collect::<Vec<_>>(),
+        "trim": lm.trim.as_ref().map(|t| {
+            let values = |v: &[linearize::trim::TrimValue]| {
+                v.iter().map(|v| serde_json::json!({ "name": v.name, "value": v.value, "unit": v.unit })).collect::<Vec<_>>()
+            };
+            serde_json::json!({ "held": values(&t.held), "solved": values(&t.solved), "iterations": t.iterations, "residual": t.residual,
+                                "untouched": t.untouched.iter().map(|(s, why)| serde_json::json!({ "state": s, "why": why })).collect::<Vec<_>>() })
+        }),
     })
 }
 
@@ -245,6 +301,19 @@ pub fn text(r: &Linearized) -> String {
             if m.pair { format!("{:.6e} ± {:.6e}j", m.eigenvalue.re, m.eigenvalue.im) } else { format!("{:.6e}", m.eigenvalue.re) };
         let _ =
             writeln!(s, "  λ = {lambda} 1/s: ω_n = {:.6} rad/s ({:.4} Hz), ζ = {:.4}", m.natural_frequency, m.frequency_hz(), m.damping);
+    }
+    if let Some(t) = &lm.trim {
+        let list = |v: &[linearize::trim::TrimValue]| {
+            v.iter()
+                .map(|v| format!("{} = {} {}", v.name, units::show::num(v.value), v.unit).trim_end().to_string())
+                .collect::<Vec<_>>()
+                .join(", ")
+        };
+        let _ = writeln!(s, "trim ({} iterations, residual {:.1e}): held {}", t.iterations, t.residual, list(&t.held));
+        let _ = writeln!(s, "  solved: {}", list(&t.solved));
+        for (state, why) in &t.untouched {
+            let _ = writeln!(s, "  untouched: {state} ({why})");
+        }
     }
     s
 }

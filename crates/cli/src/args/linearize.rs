@@ -8,8 +8,9 @@ use std::path::PathBuf;
 pub struct LinearizeArgs {
     /// Netlist file (JSON) with an interface section (inputs, outputs).
     pub model: PathBuf,
-    /// Operating point: "rest" or a time of a simulation, "t=1.2 s".
-    #[arg(long, default_value = "rest", value_name = "rest|t=TIME")]
+    /// Operating point: "rest", a time of a simulation ("t=1.2 s") or a trim,
+    /// conditions NAME=VALUE separated by ';' ("piston.x=200 mm; F=0 N; head.p=4 bar").
+    #[arg(long, default_value = "rest", value_name = "rest|t=TIME|NAME=VALUE;...")]
     pub at: String,
     /// Override a parameter: ID.PARAM=VALUE.
     #[arg(long = "set", value_name = "ID.PARAM=VALUE")]

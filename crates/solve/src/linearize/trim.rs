@@ -112,7 +112,10 @@ pub fn trim(model: &mut Model, guess: &[f64], constraints: &[Constraint], fricti
             Target::Recorded(_) => {}
         }
     }
-    let mechanics = set_modes(model, t, &y, PointKind::Trim, friction)?;
+    // a stated value the model cannot be evaluated at (a position beyond
+    // the stroke, a negative pressure) is named, not left to the model's error
+    let mechanics = set_modes(model, t, &y, PointKind::Trim, friction)
+        .map_err(|e| LinearizeError::Trim(format!("the model cannot be evaluated at the stated {}: {e}", stated(model, constraints))))?;
     let held: Vec<usize> = mechanics.iter().flat_map(|nm| nm.held_states.iter().copied()).collect();
     // a constraint on a held node's state is met by holding it: not an equation
     let equations: Vec<Constraint> =
@@ -177,9 +180,10 @@ pub fn trim(model: &mut Model, guess: &[f64], constraints: &[Constraint], fricti
     while norm_inf(&residual) > TOL {
         if iterations == MAX_ITER {
             return Err(LinearizeError::Trim(format!(
-                "no equilibrium found in {MAX_ITER} iterations: the largest residual is {:.1e} (in {}); check that the constraints can hold together",
+                "no equilibrium found in {MAX_ITER} iterations: the largest residual is {:.1e} (in {}); check that {} can hold together",
                 norm_inf(&residual),
-                problem.equation_name(model, &residual)
+                problem.equation_name(model, &residual),
+                stated(model, constraints)
             )));
         }
         iterations += 1;
@@ -196,12 +200,28 @@ pub fn trim(model: &mut Model, guess: &[f64], constraints: &[Constraint], fricti
                 }
                 _ if lambda < 1e-6 => {
                     return Err(LinearizeError::Trim(format!(
-                        "no equilibrium found: the residual stops falling at {:.1e} (in {}); check that the constraints can hold together",
+                        "no equilibrium found: the residual stops falling at {:.1e} (in {}); check that {} can hold together",
                         norm_inf(&residual),
-                        problem.equation_name(model, &residual)
+                        problem.equation_name(model, &residual),
+                        stated(model, constraints)
                     )));
                 }
                 _ => lambda *= 0.5,
+            }
+        }
+    }
+    // a state solved to within round-off of zero (a velocity at rest,
+    // ~1e-29 m/s) is set to zero where that keeps the residual converged:
+    // the linearisation chooses the friction mode from the sign of v, and
+    // the trim was solved in the mode of v = 0
+    for (k, &i) in problem.states.iter().enumerate() {
+        if point.y[i] != 0.0 && point.y[i].abs() < 1e-12 * problem.scales[k] {
+            let mut q = point.clone();
+            q.y[i] = 0.0;
+            if let Ok(r) = problem.residual(model, &q) {
+                if norm_inf(&r) <= TOL {
+                    (point, residual) = (q, r);
+                }
             }
         }
     }
@@ -382,6 +402,18 @@ fn null_directions(j: &linear::lstsq::Svd, names: &[String]) -> Vec<String> {
         }
     }
     out
+}
+
+/// "piston.x = 0.6 m, F = 0 N": the constraints as stated, in SI.
+fn stated(model: &Model, constraints: &[Constraint]) -> String {
+    constraints
+        .iter()
+        .map(|c| {
+            let unit = target(model, &c.name).map(|(_, u)| u).unwrap_or_default();
+            format!("{} = {} {unit}", c.name, units::show::num(c.value)).trim_end().to_string()
+        })
+        .collect::<Vec<_>>()
+        .join(", ")
 }
 
 fn plural(k: usize) -> &'static str {
