@@ -170,7 +170,7 @@ def test_operating_point_at_a_time(root):
 @pytest.mark.parametrize(
     "at, error, words",
     [
-        ("soon", pneumo.UsageError, "expected rest or t=TIME"),
+        ("soon", pneumo.UsageError, "expected rest, t=TIME"),
         ("t=abc", pneumo.UsageError, "operating point"),
         ("t=2 bar", pneumo.UsageError, "operating point"),
         (-1.0, ValueError, "> 0 s"),
