@@ -16,6 +16,7 @@ pub mod iso6358;
 pub mod lagged_sensor;
 pub mod params;
 pub mod registry;
+pub mod spool_paths;
 pub mod suggest;
 pub mod support;
 
