@@ -81,6 +81,39 @@ impl Block for Capillary {
         let (f, da, db) = self.flow_slopes(&ctx.pneumatic[0], &ctx.pneumatic[1]);
         Some(crate::conductance::at_port(port, f, da, db))
     }
+    /// ṁ = k·c·(p_a² − p_b²)/2 with c = ρ_up/p_up (the integrated
+    /// Hagen–Poiseuille law above): ∂ṁ/∂p_a = k c p_a, ∂ṁ/∂p_b = −k c p_b,
+    /// plus (k/2)(p_a² − p_b²)·∂c of the upstream side, ∂c/∂p = (p ∂ρ/∂p − ρ)/p²,
+    /// ∂c/∂T = (∂ρ/∂T)/p (gas-model slopes, [`crate::support::GasSlopes`]);
+    /// Ė = ṁ·h_up with h_up moving with the upstream state.
+    fn partials(&self, phase: Phase, ctx: &Ctx, _b: &Balances, d: &mut Partials) -> bool {
+        if phase != Phase::Flows {
+            return true;
+        }
+        let (a, b) = (&ctx.pneumatic[0], &ctx.pneumatic[1]);
+        let up_port = if a.p >= b.p { 0 } else { 1 };
+        let up = &ctx.pneumatic[up_port];
+        let (f, da, db) = self.flow_slopes(a, b);
+        let slopes = crate::support::GasSlopes::at(ctx.gas, up);
+        let half = 0.5 * self.k * (a.p * a.p - b.p * b.p);
+        let dc_dp = (up.p * slopes.drho_dp - up.rho) / (up.p * up.p);
+        let dc_dt = slopes.drho_dt / up.p;
+        // ∂ṁ by p_a, T_a, p_b, T_b
+        let mut dm = [da, 0.0, db, 0.0];
+        dm[2 * up_port] += half * dc_dp;
+        dm[2 * up_port + 1] += half * dc_dt;
+        let mut de = dm.map(|v| v * up.h);
+        de[2 * up_port] += f.mdot * slopes.dh_dp;
+        de[2 * up_port + 1] += f.mdot * slopes.dh_dt;
+        let inputs = [In::P(0), In::T(0), In::P(1), In::T(1)];
+        for (port, sign) in [(0, 1.0), (1, -1.0)] {
+            for (i, &input) in inputs.iter().enumerate() {
+                d.set(Out::Mdot(port), input, sign * dm[i]);
+                d.set(Out::Edot(port), input, sign * de[i]);
+            }
+        }
+        true
+    }
     fn outputs(&self) -> &[OutputSpec] {
         OUTPUTS
     }
@@ -141,5 +174,15 @@ mod tests {
         let vacuum = cap.flow_slopes(&a, &gas.state_pt(0.1e5, 293.15)).0.mdot;
         let half = cap.flow_slopes(&a, &gas.state_pt(1.5e5, 293.15)).0.mdot;
         assert!(vacuum > half && half > f.mdot);
+    }
+
+    #[test]
+    fn partials_equal_central_differences() {
+        use crate::partials_check::{build, point};
+        let v = build(&TYPE, &[("k", "2 L/min/bar")]);
+        // flow from a to b, then from b to a (the upstream side's density and enthalpy move)
+        for ports in [[(5e5, 300.0), (1e5, 280.0)], [(2e5, 285.0), (2.5e5, 310.0)]] {
+            point(&[], &ports, &[]).check(v.as_ref(), Phase::Flows);
+        }
     }
 }

@@ -101,6 +101,14 @@ impl Block for Delay {
             *d = if self.pending(ctx.signals[0]) { 1.0 } else { 0.0 };
         }
     }
+    /// The output is the held level (no slope) or, with T = 0, the input
+    /// itself; the clock's rate is 0 or 1, piecewise constant.
+    fn partials(&self, phase: Phase, _ctx: &Ctx, _b: &Balances, d: &mut Partials) -> bool {
+        if phase == Phase::Signals && self.delay <= 0.0 {
+            d.set(Out::Signal(0), In::Signal(0), 1.0);
+        }
+        true
+    }
     fn n_event_functions(&self) -> usize {
         usize::from(self.delay > 0.0)
     }
@@ -176,5 +184,19 @@ mod tests {
         let mut y = [0.0];
         d.signal_outputs(&ctx(0.0, &[], &[0.7]), &mut y);
         assert_eq!(y[0], 0.7);
+    }
+
+    #[test]
+    fn partials_equal_central_differences() {
+        use crate::partials_check::{build, point};
+        let feedthrough = build(&TYPE, &[("delay", "0 s")]);
+        point(&[], &[], &[0.7]).check(feedthrough.as_ref(), Phase::Signals);
+        let delayed = build(&TYPE, &[("delay", "10 ms")]);
+        // a change pending (the clock runs) and none (it stands)
+        for input in [1.0, 0.0] {
+            let at = point(&[0.004], &[], &[input]);
+            at.check(delayed.as_ref(), Phase::Signals);
+            at.check(delayed.as_ref(), Phase::Derivatives);
+        }
     }
 }

@@ -15,6 +15,8 @@ pub mod external_input;
 pub mod iso6358;
 pub mod lagged_sensor;
 pub mod params;
+#[cfg(test)]
+mod partials_check;
 pub mod registry;
 pub mod spool_paths;
 pub mod suggest;

@@ -135,8 +135,9 @@ impl Regulation {
         }
     }
     /// Partials of the flows or the lag derivatives (by `phase`) for a set
-    /// pressure that moves with the block's inputs as `dp_set` lists.
-    pub fn partials(&self, phase: Phase, p_set: f64, dp_set: &[(In, f64)], ctx: &Ctx, d: &mut Partials) {
+    /// pressure that moves with the block's inputs as `dp_set` lists; the
+    /// lagged openings are the block's states `first` and `first + 1`.
+    pub fn partials(&self, phase: Phase, p_set: f64, dp_set: &[(In, f64)], first: usize, ctx: &Ctx, d: &mut Partials) {
         let p_a = ctx.pneumatic[1].p;
         // targets: x = ramp(p_set − p_a), y = ramp(p_a − p_set − offset)
         let sx = crate::support::ramp_slope(p_set - p_a, 0.0, self.droop);
@@ -147,13 +148,14 @@ impl Regulation {
             v
         };
         let (tx, ty) = (target(sx, 1.0), target(sy, -1.0));
-        let lagged = self.tau > 0.0 && ctx.states.len() >= 2;
+        let states = ctx.states.get(first..).unwrap_or(&[]);
+        let lagged = self.tau > 0.0 && states.len() >= 2;
         match phase {
             Phase::Flows => {
-                let (x, y) = self.openings(p_set, p_a, ctx.states);
+                let (x, y) = self.openings(p_set, p_a, states);
                 let inside = |v: f64| (0.0..=1.0).contains(&v);
                 let (dx, dy) = if lagged {
-                    let own = |k: usize| if inside(ctx.states[k]) { vec![(In::State(k), 1.0)] } else { Vec::new() };
+                    let own = |k: usize| if inside(states[k]) { vec![(In::State(first + k), 1.0)] } else { Vec::new() };
                     (own(0), own(1))
                 } else {
                     (tx, ty)
@@ -166,7 +168,7 @@ impl Regulation {
                 }
             }
             Phase::Derivatives if lagged => {
-                for (k, t) in [(0, tx), (1, ty)] {
+                for (k, t) in [(first, tx), (first + 1, ty)] {
                     d.set(Out::Rate(k), In::State(k), -1.0 / self.tau);
                     for (i, v) in t {
                         d.add(Out::Rate(k), i, v / self.tau);
@@ -251,7 +253,7 @@ impl Block for PressureRegulator {
         self.regulation.flows(self.p_set, ctx, ctx.states, out);
     }
     fn partials(&self, phase: Phase, ctx: &Ctx, _b: &Balances, d: &mut Partials) -> bool {
-        self.regulation.partials(phase, self.p_set, &[], ctx, d);
+        self.regulation.partials(phase, self.p_set, &[], 0, ctx, d);
         true
     }
     fn derivatives(&self, ctx: &Ctx, _b: &Balances, out: &mut [f64]) {

@@ -141,6 +141,21 @@ impl Block for ProportionalPressureValve {
         let w = self.setpoint.position(ctx.states);
         self.regulation.derivatives(w, ctx.pneumatic[1].p, &ctx.states[k..], &mut out[k..]);
     }
+    /// The set-point response's partials ([`Spool::partials`], command
+    /// u = max(p_set + offset, offset): slope 1 above zero gauge) and the
+    /// regulator's ([`Regulation::partials`]: ISO 6358 passages, paper Eq.
+    /// 33–35, opened by the ramps of the effective set pressure w = first state).
+    fn partials(&self, phase: Phase, ctx: &Ctx, _b: &Balances, d: &mut Partials) -> bool {
+        let k = self.n_spool();
+        let w = self.setpoint.position(ctx.states);
+        if phase == Phase::Derivatives {
+            let u = ctx.signals[ctx.signals.len() - 1];
+            let du: &[(In, f64)] = if u > 0.0 { &[(In::Signal(0), 1.0)] } else { &[] };
+            self.setpoint.partials(du, d);
+        }
+        self.regulation.partials(phase, w, &[(In::State(0), 1.0)], k, ctx, d);
+        true
+    }
     fn outputs(&self) -> &[OutputSpec] {
         OUTPUTS
     }
@@ -190,5 +205,28 @@ mod tests {
         let n2 = [n[0], gas.state_pt(4.5e5, 293.15), n[2]];
         v.flows(&Ctx { pneumatic: &n2, ..ctx }, &mut out);
         assert!(out[0].mdot == 0.0 && out[2].mdot < 0.0);
+    }
+
+    #[test]
+    fn partials_equal_central_differences() {
+        use crate::partials_check::{build, point};
+        let base = [("C", "10 L/min/bar"), ("b", "0.3")];
+        let ports = |outlet: f64| [(7e5, 300.0), (outlet, 295.0), (1.01325e5, 290.0)];
+        // set pressure w = 5 bar abs; outlet below it (supply opening, relief shut), above it (relieving)
+        let first = build(&TYPE, &base);
+        let second = build(&TYPE, &[base[0], base[1], ("spool_order", "second")]);
+        for outlet in [4.9e5, 5.1e5] {
+            point(&[5e5], &ports(outlet), &[3e5]).check(first.as_ref(), Phase::Flows);
+            point(&[5e5], &ports(outlet), &[3e5]).check(first.as_ref(), Phase::Derivatives);
+            point(&[5e5, 2e6], &ports(outlet), &[3e5]).check(second.as_ref(), Phase::Flows);
+            point(&[5e5, 2e6], &ports(outlet), &[3e5]).check(second.as_ref(), Phase::Derivatives);
+        }
+        // lagged openings (states w, x, y), a negative command clipped at zero gauge
+        let lagged = build(&TYPE, &[base[0], base[1], ("response_time", "5 ms")]);
+        for signal in [3e5, -1e4] {
+            let at = point(&[5e5, 0.4, 0.2], &ports(5.1e5), &[signal]);
+            at.check(lagged.as_ref(), Phase::Flows);
+            at.check(lagged.as_ref(), Phase::Derivatives);
+        }
     }
 }

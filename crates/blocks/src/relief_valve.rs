@@ -70,6 +70,18 @@ impl Block for ReliefValve {
         out[0] = f;
         out[1] = -f;
     }
+    /// ṁ = x·ṁ_ISO(p_P, p_E) (paper Eq. 33–35) with x = clamp((p_P − p_E −
+    /// p_crack)/Δp_band, 0, 1): the ISO 6358 partials plus ṁ_ISO·∂x/∂p
+    /// (±1/Δp_band inside the band).
+    fn partials(&self, phase: Phase, ctx: &Ctx, _b: &Balances, d: &mut Partials) -> bool {
+        if phase == Phase::Flows {
+            let (a, e) = (&ctx.pneumatic[0], &ctx.pneumatic[1]);
+            let s = crate::support::ramp_slope(a.p - e.p, self.p_crack, self.band);
+            let r = crate::conductance::restriction_partials(&self.flow, self.opening(a.p, e.p), a, e, 0.0, ctx.gas);
+            crate::conductance::add_path(d, 0, 1, &r, &[(In::P(0), s), (In::P(1), -s)]);
+        }
+        true
+    }
     fn outputs(&self) -> &[OutputSpec] {
         OUTPUTS
     }
@@ -120,5 +132,15 @@ mod tests {
         let mut out = [PortFlow::default(); 2];
         v.flows(&Ctx { t: 0.0, gas: &gas, states: &[], pneumatic: &n, mechanical: &[], signals: &[] }, &mut out);
         assert_eq!(out[0].mdot, 0.0);
+    }
+
+    #[test]
+    fn partials_equal_central_differences() {
+        use crate::partials_check::{build, point};
+        let v = build(&TYPE, &[("C", "20 L/min/bar"), ("b", "0.3"), ("p_crack", "6 bar")]);
+        // (line, exhaust): opening and choked, fully open and choked, opening and subsonic, closed
+        for (p, e) in [(7.2e5, 1e5), (8e5, 1e5), (10.4e5, 4e5), (6.5e5, 1e5)] {
+            point(&[], &[(p, 300.0), (e, 290.0)], &[]).check(v.as_ref(), Phase::Flows);
+        }
     }
 }

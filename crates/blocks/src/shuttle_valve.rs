@@ -75,6 +75,21 @@ impl BallSeat {
         let d = if self.higher_passes { p1 - p2 } else { p2 - p1 };
         (0.5 + d / self.shift).clamp(0.0, 1.0)
     }
+    /// ∂w*/∂p₁ of [`BallSeat::target`] (∂w*/∂p₂ is its negative): ±1/Δp_shift
+    /// inside the clamp, 0 outside.
+    fn target_slope(&self, p1: f64, p2: f64) -> f64 {
+        let d = if self.higher_passes { p1 - p2 } else { p2 - p1 };
+        let u = 0.5 + d / self.shift;
+        if u > 0.0 && u < 1.0 {
+            if self.higher_passes {
+                1.0 / self.shift
+            } else {
+                -1.0 / self.shift
+            }
+        } else {
+            0.0
+        }
+    }
 }
 
 impl Block for BallSeat {
@@ -111,6 +126,33 @@ impl Block for BallSeat {
     }
     fn derivatives(&self, ctx: &Ctx, _b: &Balances, out: &mut [f64]) {
         out[0] = (self.target(ctx.pneumatic[0].p, ctx.pneumatic[1].p) - ctx.states[0]) / self.tau;
+    }
+    /// Flows: the two ISO 6358 passages (paper Eq. 33–35) with openings w and
+    /// 1 − w ([`crate::conductance::restriction_partials`]), the opening moving
+    /// with the ball state while it lies in [0, 1]. Derivatives: τ·ẇ = w* − w
+    /// with w* = clamp(½ ± (p₁ − p₂)/Δp_shift).
+    fn partials(&self, phase: Phase, ctx: &Ctx, _b: &Balances, d: &mut Partials) -> bool {
+        match phase {
+            Phase::Flows => {
+                let raw = ctx.states[0];
+                let w = raw.clamp(0.0, 1.0);
+                let moves = raw > 0.0 && raw < 1.0;
+                let a = &ctx.pneumatic[2];
+                for (port, opening, slope) in [(0, w, 1.0), (1, 1.0 - w, -1.0)] {
+                    let r = crate::conductance::restriction_partials(&self.flow, opening, &ctx.pneumatic[port], a, 0.0, ctx.gas);
+                    let by_ball: &[(In, f64)] = if moves { &[(In::State(0), slope)] } else { &[] };
+                    crate::conductance::add_path(d, port, 2, &r, by_ball);
+                }
+            }
+            Phase::Derivatives => {
+                let s = self.target_slope(ctx.pneumatic[0].p, ctx.pneumatic[1].p) / self.tau;
+                d.set(Out::Rate(0), In::State(0), -1.0 / self.tau);
+                d.set(Out::Rate(0), In::P(0), s);
+                d.set(Out::Rate(0), In::P(1), -s);
+            }
+            _ => {}
+        }
+        true
     }
     fn outputs(&self) -> &[OutputSpec] {
         OUTPUTS
@@ -156,5 +198,23 @@ mod tests {
         // vented inlet: the outlet exhausts back through the inlet that fed it (both inlets at 1 bar: ball centred)
         let f = steady(&v, 1e5, 1e5, 3e5);
         assert!(f[0] < 0.0 && f[1] < 0.0 && (f[0] - f[1]).abs() < 1e-18);
+    }
+
+    #[test]
+    fn partials_equal_central_differences() {
+        use crate::partials_check::{build, point};
+        for ty in [&TYPE, &crate::two_pressure_valve::TYPE] {
+            let v = build(ty, &[("C", "10 L/min/bar"), ("b", "0.3")]);
+            // ball between the seats, inlets within the shift band; outlet subsonic, then choked
+            for a in [3e5, 1.2e5] {
+                let at = point(&[0.3], &[(5.02e5, 293.0), (5.0e5, 300.0), (a, 290.0)], &[]);
+                at.check(v.as_ref(), Phase::Flows);
+                at.check(v.as_ref(), Phase::Derivatives);
+            }
+            // ball nearly across, target clamped by a large inlet difference; the outlet exhausting
+            let at = point(&[0.99], &[(6e5, 293.0), (1e5, 293.0), (3e5, 293.0)], &[]);
+            at.check(v.as_ref(), Phase::Flows);
+            at.check(v.as_ref(), Phase::Derivatives);
+        }
     }
 }
