@@ -11,10 +11,11 @@
 //! F=0 N; head.p=4 bar`: states, interface inputs, recorded values, each
 //! value in a unit of its own dimension), solved from the netlist's start
 //! state by `solve::linearize::trim`. Inputs and outputs
-//! are the netlist's interface section. The derivatives are central
-//! differences of the model's rates through one seam
-//! (`solve::linearize::jacobians::jacobians`), to be replaced by exact
-//! Jacobians.
+//! are the netlist's interface section, in the order it writes them. The
+//! derivatives come through one seam (`solve::linearize::jacobians::jacobians`:
+//! A exact, B, C, D central differences). Each output/input pair gets its
+//! poles, zeros and gain (`linear::zeros`); `--bode FILE.svg|png` draws the
+//! Bode data (`crate::plot::bode_image`).
 
 use crate::error::AppError;
 use crate::load::netlist_with_files;

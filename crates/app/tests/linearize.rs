@@ -73,11 +73,12 @@ fn transfer(lm: &solve::linearize::LinearModel, s: linear::Complex) -> Vec<linea
     for k in 0..n {
         let pivot = (k..n).max_by(|&x, &y| a[x][k].norm().total_cmp(&a[y][k].norm())).unwrap();
         a.swap(k, pivot);
-        for i in k + 1..n {
-            let factor = a[i][k] / a[k][k];
-            for j in k..n + m {
-                let v = a[k][j];
-                a[i][j] -= factor * v;
+        let (upper, lower) = a.split_at_mut(k + 1);
+        let pivot_row = &upper[k];
+        for row in lower.iter_mut() {
+            let factor = row[k] / pivot_row[k];
+            for (target, v) in row.iter_mut().zip(pivot_row).skip(k) {
+                *target -= factor * v;
             }
         }
     }
@@ -94,7 +95,7 @@ fn transfer(lm: &solve::linearize::LinearModel, s: linear::Complex) -> Vec<linea
     let mut h = Vec::with_capacity(p * m);
     for i in 0..p {
         for j in 0..m {
-            h.push((0..n).map(|k| x[k][j] * lm.c[(i, k)]).sum::<Complex>() + lm.d[(i, j)]);
+            h.push(x.iter().enumerate().map(|(k, xk)| xk[j] * lm.c[(i, k)]).sum::<Complex>() + lm.d[(i, j)]);
         }
     }
     h
