@@ -34,7 +34,8 @@
 //! besides the linear opening.
 
 use crate::block::*;
-use crate::conductance::{characteristic, restriction_flow};
+use crate::conductance::characteristic;
+use crate::spool_paths::{self, Opening};
 use crate::iso6358::FlowCharacteristic;
 use crate::params::{ParamSpec, Params, Range};
 use units::dim;
@@ -155,6 +156,17 @@ impl DirectionalValve {
         })
     }
 
+    /// Each path's opening: s when open actuated, 1 − s when open at rest.
+    /// A lagged spool moves the openings; a switched one is piecewise constant.
+    fn openings(&self, ctx: &Ctx) -> impl Iterator<Item = Opening<'_>> {
+        let s = self.spool(ctx);
+        let ds = if self.spool_tau > 0.0 && (0.0..=1.0).contains(&ctx.states[0]) { 1.0 } else { 0.0 };
+        self.paths.iter().map(move |path| {
+            let (opening, slope) = if path.when_actuated { (s, ds) } else { (1.0 - s, -ds) };
+            Opening { from: path.from, to: path.to, flow: &path.flow, leak: None, opening, slope }
+        })
+    }
+
     /// Spool position in [0, 1] from the states (lag) or the command (instant).
     pub fn spool(&self, ctx: &Ctx) -> f64 {
         if self.spool_tau > 0.0 {
@@ -194,51 +206,14 @@ impl Block for DirectionalValve {
         }
     }
     fn flows(&self, ctx: &Ctx, out: &mut [PortFlow]) {
-        let s = self.spool(ctx);
-        for f in out.iter_mut() {
-            *f = PortFlow::default();
-        }
-        for path in &self.paths {
-            let opening = if path.when_actuated { s } else { 1.0 - s };
-            let f = restriction_flow(&path.flow, opening, &ctx.pneumatic[path.from], &ctx.pneumatic[path.to], 0.0);
-            out[path.from] += f;
-            out[path.to] += -f;
-        }
+        spool_paths::flows(self.openings(ctx), ctx, out);
     }
     fn port_flow(&self, ctx: &Ctx, port: usize) -> Option<(PortFlow, f64)> {
-        let s = self.spool(ctx);
-        let (mut sum, mut slope) = (PortFlow::default(), 0.0);
-        for path in self.paths.iter().filter(|p| p.from == port || p.to == port) {
-            let opening = if path.when_actuated { s } else { 1.0 - s };
-            let (f, da, db) =
-                crate::conductance::restriction_flow_slopes(&path.flow, opening, &ctx.pneumatic[path.from], &ctx.pneumatic[path.to], 0.0);
-            if path.from == port {
-                sum += f;
-                slope += da;
-            } else {
-                sum += -f;
-                slope -= db;
-            }
-        }
-        Some((sum, slope))
+        Some(spool_paths::port_flow(self.openings(ctx), ctx, port))
     }
     fn partials(&self, phase: Phase, ctx: &Ctx, _b: &Balances, d: &mut Partials) -> bool {
         match phase {
-            Phase::Flows => {
-                let s = self.spool(ctx);
-                // the lagged spool moves the openings; a switched one is piecewise constant
-                let ds = if self.spool_tau > 0.0 && (0.0..=1.0).contains(&ctx.states[0]) { 1.0 } else { 0.0 };
-                for path in &self.paths {
-                    let (opening, slope) = if path.when_actuated { (s, ds) } else { (1.0 - s, -ds) };
-                    if opening <= 0.0 && slope == 0.0 {
-                        continue; // a shut path
-                    }
-                    let (a, b) = (&ctx.pneumatic[path.from], &ctx.pneumatic[path.to]);
-                    let r = crate::conductance::restriction_partials(&path.flow, opening, a, b, 0.0, ctx.gas);
-                    let moves: &[(In, f64)] = if slope != 0.0 { &[(In::State(0), slope)] } else { &[] };
-                    crate::conductance::add_path(d, path.from, path.to, &r, moves);
-                }
-            }
+            Phase::Flows => spool_paths::flow_partials(self.openings(ctx), ctx, d),
             Phase::Derivatives if self.spool_tau > 0.0 => d.set(Out::Rate(0), In::State(0), -1.0 / self.spool_tau),
             _ => {}
         }

@@ -13,8 +13,10 @@ pub mod block;
 /// The source behind an interface input (created by `graph`, not a netlist type).
 pub mod external_input;
 pub mod iso6358;
+pub mod lagged_sensor;
 pub mod params;
 pub mod registry;
+pub mod spool_paths;
 pub mod suggest;
 pub mod support;
 

@@ -12,10 +12,13 @@
 //! # Equations
 //! τ·ẏ = (x − offset) − y (first-order instrument, Doebelin, *Measurement
 //! Systems*, §3.3); the reading starts at the initial position.
+//!
+//! The lag, states and partials are the shared [`crate::lagged_sensor`]
+//! pattern; this file says only what is read.
 
 use crate::block::*;
 use crate::params::{ParamSpec, Params, Range};
-use crate::support::Lag;
+use crate::lagged_sensor::{LaggedSensor, Reading};
 use units::dim;
 
 pub const PARAMS: &[ParamSpec] = &[
@@ -27,58 +30,32 @@ pub const PORTS: &[PortSpec] = &[
     PortSpec::signal("x", PortKind::SignalOut, "m", "position reading"),
 ];
 
+/// What a position sensor reads: the node's position less the sensor's zero.
 #[derive(Debug, Clone, PartialEq)]
-pub struct PositionSensor {
-    pub lag: Lag,
+pub struct Position {
+    /// Position read as zero [m].
     pub offset: f64,
 }
 
-impl PositionSensor {
-    pub fn from_params(p: &Params) -> Result<Self, crate::BlockError> {
-        Ok(PositionSensor { lag: Lag { tau: p.get("time_constant") }, offset: p.get("offset") })
+impl Reading for Position {
+    const TYPE_NAME: &'static str = "position_sensor";
+    const PORTS: &'static [PortSpec] = PORTS;
+    const SCALE: f64 = 0.1;
+    const INPUT: In = In::X(0);
+    fn from_params(p: &Params) -> Result<Self, crate::BlockError> {
+        Ok(Position { offset: p.get("offset") })
     }
-    fn measured(&self, ctx: &Ctx) -> f64 {
+    fn value(&self, ctx: &Ctx) -> f64 {
         ctx.mechanical[0].x - self.offset
     }
 }
 
-impl Block for PositionSensor {
-    fn type_name(&self) -> &'static str {
-        "position_sensor"
-    }
-    fn ports(&self) -> &[PortSpec] {
-        PORTS
-    }
-    fn gas_role(&self) -> GasRole {
-        GasRole::None
-    }
-    fn states(&self) -> &[StateSpec] {
-        self.lag.states()
-    }
-    fn state_scales(&self, _init: &[f64], out: &mut [f64]) {
-        out.fill(0.1);
-    }
-    fn initial_states_from_inputs(&self, ctx: &Ctx, states: &mut [f64]) {
-        self.lag.start_at(self.measured(ctx), states);
-    }
-    fn forces(&self, _ctx: &Ctx, out: &mut [PortForce]) {
-        out[0] = PortForce::default();
-    }
-    fn partials(&self, phase: Phase, _ctx: &Ctx, _b: &Balances, d: &mut Partials) -> bool {
-        self.lag.partials(phase, 0, &[(In::X(0), 1.0)], d);
-        true
-    }
-    fn signal_outputs(&self, ctx: &Ctx, out: &mut [f64]) {
-        out[0] = self.lag.output(self.measured(ctx), ctx.states);
-    }
-    fn derivatives(&self, ctx: &Ctx, _b: &Balances, out: &mut [f64]) {
-        self.lag.derivative(self.measured(ctx), ctx.states, out);
-    }
-}
+/// The position sensor: [`Position`] behind a first-order lag.
+pub type PositionSensor = LaggedSensor<Position>;
 
 /// Registry entry of `position_sensor`.
 pub const TYPE: crate::registry::BlockType = crate::registry::BlockType {
-    name: "position_sensor",
+    name: <Position as Reading>::TYPE_NAME,
     family: crate::registry::Family::Sensors,
     doc: "position of a moving mass with a first-order lag",
     params: PARAMS,
@@ -90,11 +67,12 @@ pub const TYPE: crate::registry::BlockType = crate::registry::BlockType {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::support::Lag;
 
     #[test]
     fn reads_the_node_and_exerts_no_force() {
         let gas = gas::IdealGas::air();
-        let s = PositionSensor { lag: Lag { tau: 0.0 }, offset: 0.01 };
+        let s = PositionSensor { lag: Lag { tau: 0.0 }, reading: Position { offset: 0.01 } };
         let mech = [MechState { x: 0.25, v: 0.3 }];
         let ctx = Ctx { t: 0.0, gas: &gas, states: &[], pneumatic: &[], mechanical: &mech, signals: &[] };
         let mut out = [0.0];
@@ -104,7 +82,7 @@ mod tests {
         s.forces(&ctx, &mut f);
         assert_eq!(f[0], PortForce::default());
         // with a lag, a ramp x = v t is read late by τ once the transient is over
-        let lagged = PositionSensor { lag: Lag { tau: 0.002 }, offset: 0.0 };
+        let lagged = PositionSensor { lag: Lag { tau: 0.002 }, reading: Position { offset: 0.0 } };
         let (mut y, dt, v) = (0.0, 1e-6, 0.5);
         let mut d = [0.0];
         for k in 0..20_000 {

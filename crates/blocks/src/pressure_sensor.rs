@@ -18,10 +18,13 @@
 //! # Assumptions
 //! No dead volume and no flow into the sensor (its volume belongs to the
 //! node's capacity).
+//!
+//! The lag, states and partials are the shared [`crate::lagged_sensor`]
+//! pattern; this file says only what is read.
 
 use crate::block::*;
 use crate::params::{ParamSpec, Params, Range};
-use crate::support::Lag;
+use crate::lagged_sensor::{LaggedSensor, Reading};
 use units::dim;
 
 pub const PARAMS: &[ParamSpec] = &[
@@ -34,60 +37,33 @@ pub const PORTS: &[PortSpec] = &[
     PortSpec::signal("p", PortKind::SignalOut, "Pa", "pressure reading"),
 ];
 
+/// What a pressure sensor reads: the node's absolute pressure less `offset`.
 #[derive(Debug, Clone, PartialEq)]
-pub struct PressureSensor {
-    pub lag: Lag,
+pub struct Pressure {
     /// Subtracted from the absolute pressure (0, or p_atm for a gauge reading) [Pa].
     pub offset: f64,
 }
 
-impl PressureSensor {
-    pub fn from_params(p: &Params) -> Result<Self, crate::BlockError> {
+impl Reading for Pressure {
+    const TYPE_NAME: &'static str = "pressure_sensor";
+    const PORTS: &'static [PortSpec] = PORTS;
+    const SCALE: f64 = 1e5;
+    const INPUT: In = In::P(0);
+    fn from_params(p: &Params) -> Result<Self, crate::BlockError> {
         let offset = if p.choice("reading") == 1 { p.get("p_atm") } else { 0.0 };
-        Ok(PressureSensor { lag: Lag { tau: p.get("time_constant") }, offset })
+        Ok(Pressure { offset })
     }
-    fn measured(&self, ctx: &Ctx) -> f64 {
+    fn value(&self, ctx: &Ctx) -> f64 {
         ctx.pneumatic[0].p - self.offset
     }
 }
 
-impl Block for PressureSensor {
-    fn type_name(&self) -> &'static str {
-        "pressure_sensor"
-    }
-    fn ports(&self) -> &[PortSpec] {
-        PORTS
-    }
-    fn gas_role(&self) -> GasRole {
-        GasRole::None
-    }
-    fn states(&self) -> &[StateSpec] {
-        self.lag.states()
-    }
-    fn state_scales(&self, _init: &[f64], out: &mut [f64]) {
-        out.fill(1e5);
-    }
-    fn initial_states_from_inputs(&self, ctx: &Ctx, states: &mut [f64]) {
-        self.lag.start_at(self.measured(ctx), states);
-    }
-    fn flows(&self, _ctx: &Ctx, out: &mut [PortFlow]) {
-        out[0] = PortFlow::default();
-    }
-    fn partials(&self, phase: Phase, _ctx: &Ctx, _b: &Balances, d: &mut Partials) -> bool {
-        self.lag.partials(phase, 0, &[(In::P(0), 1.0)], d);
-        true
-    }
-    fn signal_outputs(&self, ctx: &Ctx, out: &mut [f64]) {
-        out[0] = self.lag.output(self.measured(ctx), ctx.states);
-    }
-    fn derivatives(&self, ctx: &Ctx, _b: &Balances, out: &mut [f64]) {
-        self.lag.derivative(self.measured(ctx), ctx.states, out);
-    }
-}
+/// The pressure sensor: [`Pressure`] behind a first-order lag.
+pub type PressureSensor = LaggedSensor<Pressure>;
 
 /// Registry entry of `pressure_sensor`.
 pub const TYPE: crate::registry::BlockType = crate::registry::BlockType {
-    name: "pressure_sensor",
+    name: <Pressure as Reading>::TYPE_NAME,
     family: crate::registry::Family::Sensors,
     doc: "pressure of a node with a first-order lag",
     params: PARAMS,
@@ -99,12 +75,13 @@ pub const TYPE: crate::registry::BlockType = crate::registry::BlockType {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::support::Lag;
     use gas::GasModel;
 
     #[test]
     fn step_response_is_the_first_order_closed_form() {
         let gas = gas::IdealGas::air();
-        let s = PressureSensor { lag: Lag { tau: 0.01 }, offset: 0.0 };
+        let s = PressureSensor { lag: Lag { tau: 0.01 }, reading: Pressure { offset: 0.0 } };
         let node = [gas.state_pt(5e5, 293.15)];
         // start at 1 bar, the node steps to 5 bar: y(τ) = 1 + 4(1 − 1/e) bar
         let (mut y, dt) = (1e5, 1e-6);
@@ -125,7 +102,7 @@ mod tests {
     #[test]
     fn ideal_gauge_reading_subtracts_the_atmosphere() {
         let gas = gas::IdealGas::air();
-        let s = PressureSensor { lag: Lag { tau: 0.0 }, offset: 101_325.0 };
+        let s = PressureSensor { lag: Lag { tau: 0.0 }, reading: Pressure { offset: 101_325.0 } };
         assert!(s.states().is_empty());
         let node = [gas.state_pt(6e5, 293.15)];
         let mut out = [0.0];

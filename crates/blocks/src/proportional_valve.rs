@@ -28,7 +28,7 @@
 //! Zero lap; no flow forces on the spool; C and b do not change with the opening.
 
 use crate::block::*;
-use crate::conductance::{restriction_flow, restriction_flow_slopes};
+use crate::spool_paths::{self, Opening};
 use crate::iso6358::FlowCharacteristic;
 use crate::params::{ParamSpec, Params, Range};
 use crate::support::Spool;
@@ -64,6 +64,21 @@ impl ProportionalValve {
         let leak = if p.get("C_leak") > 0.0 { Some(crate::iso6358::with_shared(p, p.get("C_leak"), p.get("b"))?) } else { None };
         Ok(ProportionalValve { flow: crate::iso6358::from_params(p, "C", "b")?, leak, spool: Spool::from_params(p, 1.0) })
     }
+    /// Each path's opening: max(±s, 0) on its side of centre, s the spool
+    /// position clamped to [−1, 1].
+    fn openings(&self, states: &[f64]) -> impl Iterator<Item = Opening<'_>> {
+        let x = self.spool.position(states);
+        let s = x.clamp(-1.0, 1.0);
+        let ds = if (-1.0..=1.0).contains(&x) { 1.0 } else { 0.0 };
+        PATHS.into_iter().map(move |(from, to, side)| Opening {
+            from,
+            to,
+            flow: &self.flow,
+            leak: self.leak.as_ref(),
+            opening: (side * s).max(0.0),
+            slope: if side * s > 0.0 { side * ds } else { 0.0 },
+        })
+    }
     fn command(ctx: &Ctx) -> f64 {
         ctx.signals[0].clamp(-1.0, 1.0)
     }
@@ -89,60 +104,14 @@ impl Block for ProportionalValve {
         self.spool.start_at(Self::command(ctx), states);
     }
     fn flows(&self, ctx: &Ctx, out: &mut [PortFlow]) {
-        let s = self.spool.position(ctx.states).clamp(-1.0, 1.0);
-        out.fill(PortFlow::default());
-        for (from, to, side) in PATHS {
-            let o = (side * s).max(0.0);
-            let (a, b) = (&ctx.pneumatic[from], &ctx.pneumatic[to]);
-            let mut f = restriction_flow(&self.flow, o, a, b, 0.0);
-            if let Some(leak) = &self.leak {
-                f += restriction_flow(leak, 1.0 - o, a, b, 0.0);
-            }
-            out[from] += f;
-            out[to] += -f;
-        }
+        spool_paths::flows(self.openings(ctx.states), ctx, out);
     }
     fn port_flow(&self, ctx: &Ctx, port: usize) -> Option<(PortFlow, f64)> {
-        let s = self.spool.position(ctx.states).clamp(-1.0, 1.0);
-        let (mut sum, mut slope) = (PortFlow::default(), 0.0);
-        for (from, to, side) in PATHS.into_iter().filter(|p| p.0 == port || p.1 == port) {
-            let o = (side * s).max(0.0);
-            let (a, b) = (&ctx.pneumatic[from], &ctx.pneumatic[to]);
-            let (mut f, mut da, mut db) = restriction_flow_slopes(&self.flow, o, a, b, 0.0);
-            if let Some(leak) = &self.leak {
-                let (fl, dla, dlb) = restriction_flow_slopes(leak, 1.0 - o, a, b, 0.0);
-                f += fl;
-                da += dla;
-                db += dlb;
-            }
-            if from == port {
-                sum += f;
-                slope += da;
-            } else {
-                sum += -f;
-                slope -= db;
-            }
-        }
-        Some((sum, slope))
+        Some(spool_paths::port_flow(self.openings(ctx.states), ctx, port))
     }
     fn partials(&self, phase: Phase, ctx: &Ctx, _b: &Balances, d: &mut Partials) -> bool {
         match phase {
-            Phase::Flows => {
-                let x = self.spool.position(ctx.states);
-                let s = x.clamp(-1.0, 1.0);
-                let ds = if (-1.0..=1.0).contains(&x) { 1.0 } else { 0.0 };
-                for (from, to, side) in PATHS {
-                    let o = (side * s).max(0.0);
-                    let d_o = if side * s > 0.0 { side * ds } else { 0.0 };
-                    let (a, b) = (&ctx.pneumatic[from], &ctx.pneumatic[to]);
-                    let r = crate::conductance::restriction_partials(&self.flow, o, a, b, 0.0, ctx.gas);
-                    crate::conductance::add_path(d, from, to, &r, &[(In::State(0), d_o)]);
-                    if let Some(leak) = &self.leak {
-                        let r = crate::conductance::restriction_partials(leak, 1.0 - o, a, b, 0.0, ctx.gas);
-                        crate::conductance::add_path(d, from, to, &r, &[(In::State(0), -d_o)]);
-                    }
-                }
-            }
+            Phase::Flows => spool_paths::flow_partials(self.openings(ctx.states), ctx, d),
             Phase::Derivatives => {
                 let u = ctx.signals[0];
                 let du = if (-1.0..=1.0).contains(&u) { 1.0 } else { 0.0 };

@@ -17,10 +17,13 @@
 //!
 //! # Assumptions
 //! No heat taken from the gas by the sensor.
+//!
+//! The lag, states and partials are the shared [`crate::lagged_sensor`]
+//! pattern; this file says only what is read.
 
 use crate::block::*;
 use crate::params::{ParamSpec, Params, Range};
-use crate::support::Lag;
+use crate::lagged_sensor::{LaggedSensor, Reading};
 use units::dim;
 
 pub const PARAMS: &[ParamSpec] =
@@ -30,54 +33,29 @@ pub const PORTS: &[PortSpec] = &[
     PortSpec::signal("T", PortKind::SignalOut, "K", "temperature reading"),
 ];
 
+/// What a temperature sensor reads: the gas temperature of the node.
 #[derive(Debug, Clone, PartialEq)]
-pub struct TemperatureSensor {
-    pub lag: Lag,
+pub struct Temperature;
+
+impl Reading for Temperature {
+    const TYPE_NAME: &'static str = "temperature_sensor";
+    const PORTS: &'static [PortSpec] = PORTS;
+    const SCALE: f64 = 300.0;
+    const INPUT: In = In::T(0);
+    fn from_params(_p: &Params) -> Result<Self, crate::BlockError> {
+        Ok(Temperature)
+    }
+    fn value(&self, ctx: &Ctx) -> f64 {
+        ctx.pneumatic[0].t
+    }
 }
 
-impl TemperatureSensor {
-    pub fn from_params(p: &Params) -> Result<Self, crate::BlockError> {
-        Ok(TemperatureSensor { lag: Lag { tau: p.get("time_constant") } })
-    }
-}
-
-impl Block for TemperatureSensor {
-    fn type_name(&self) -> &'static str {
-        "temperature_sensor"
-    }
-    fn ports(&self) -> &[PortSpec] {
-        PORTS
-    }
-    fn gas_role(&self) -> GasRole {
-        GasRole::None
-    }
-    fn states(&self) -> &[StateSpec] {
-        self.lag.states()
-    }
-    fn state_scales(&self, _init: &[f64], out: &mut [f64]) {
-        out.fill(300.0);
-    }
-    fn initial_states_from_inputs(&self, ctx: &Ctx, states: &mut [f64]) {
-        self.lag.start_at(ctx.pneumatic[0].t, states);
-    }
-    fn flows(&self, _ctx: &Ctx, out: &mut [PortFlow]) {
-        out[0] = PortFlow::default();
-    }
-    fn partials(&self, phase: Phase, _ctx: &Ctx, _b: &Balances, d: &mut Partials) -> bool {
-        self.lag.partials(phase, 0, &[(In::T(0), 1.0)], d);
-        true
-    }
-    fn signal_outputs(&self, ctx: &Ctx, out: &mut [f64]) {
-        out[0] = self.lag.output(ctx.pneumatic[0].t, ctx.states);
-    }
-    fn derivatives(&self, ctx: &Ctx, _b: &Balances, out: &mut [f64]) {
-        self.lag.derivative(ctx.pneumatic[0].t, ctx.states, out);
-    }
-}
+/// The temperature sensor: [`Temperature`] behind a first-order lag.
+pub type TemperatureSensor = LaggedSensor<Temperature>;
 
 /// Registry entry of `temperature_sensor`.
 pub const TYPE: crate::registry::BlockType = crate::registry::BlockType {
-    name: "temperature_sensor",
+    name: <Temperature as Reading>::TYPE_NAME,
     family: crate::registry::Family::Sensors,
     doc: "gas temperature of a node with a first-order lag",
     params: PARAMS,
@@ -89,12 +67,13 @@ pub const TYPE: crate::registry::BlockType = crate::registry::BlockType {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::support::Lag;
     use gas::GasModel;
 
     #[test]
     fn lags_behind_a_temperature_step_by_its_time_constant() {
         let gas = gas::IdealGas::air();
-        let s = TemperatureSensor { lag: Lag { tau: 0.05 } };
+        let s = TemperatureSensor { lag: Lag { tau: 0.05 }, reading: Temperature };
         let node = [gas.state_pt(3e5, 350.0)];
         let (mut y, dt) = (300.0, 1e-5);
         let mut d = [0.0];

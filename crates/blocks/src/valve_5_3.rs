@@ -49,7 +49,7 @@
 //! flow; the pilot spool switches as a whole (no intermediate position).
 
 use crate::block::*;
-use crate::conductance::{restriction_flow, restriction_flow_slopes};
+use crate::spool_paths::{self, Opening};
 use crate::iso6358::FlowCharacteristic;
 use crate::params::{ParamSpec, Params, Range};
 use crate::support::{switch_root, switch_state};
@@ -224,6 +224,25 @@ impl Valve53 {
         }
     }
 
+    /// Each path's opening: paths of position 14 by max(s, 0), of position
+    /// 12 by max(−s, 0), centre paths by 1 − |s|. A lagged spool moves the
+    /// openings; the switched target is piecewise constant.
+    fn openings(&self, states: &[f64]) -> impl Iterator<Item = Opening<'_>> {
+        let s = self.spool(states);
+        let ds = match states.first() {
+            Some(&x) if self.spool_tau > 0.0 && (-1.0..=1.0).contains(&x) => 1.0,
+            _ => 0.0,
+        };
+        self.paths.iter().map(move |path| {
+            let (opening, slope) = match path.group {
+                Group::Side14 => (s.max(0.0), if s > 0.0 { ds } else { 0.0 }),
+                Group::Side12 => ((-s).max(0.0), if s < 0.0 { -ds } else { 0.0 }),
+                Group::Centre => (1.0 - s.abs(), -s.signum() * ds),
+            };
+            Opening { from: path.from, to: path.to, flow: &path.flow, leak: path.leak.as_ref(), opening, slope }
+        })
+    }
+
     /// Spool position in [−1, 1].
     pub fn spool(&self, states: &[f64]) -> f64 {
         if self.spool_tau > 0.0 {
@@ -271,74 +290,14 @@ impl Block for Valve53 {
         }
     }
     fn flows(&self, ctx: &Ctx, out: &mut [PortFlow]) {
-        let s = self.spool(ctx.states);
-        out.fill(PortFlow::default());
-        for path in &self.paths {
-            let opening = match path.group {
-                Group::Side14 => s.max(0.0),
-                Group::Side12 => (-s).max(0.0),
-                Group::Centre => 1.0 - s.abs(),
-            };
-            let (a, b) = (&ctx.pneumatic[path.from], &ctx.pneumatic[path.to]);
-            let mut f = restriction_flow(&path.flow, opening, a, b, 0.0);
-            if let Some(leak) = &path.leak {
-                f += restriction_flow(leak, 1.0 - opening, a, b, 0.0);
-            }
-            out[path.from] += f;
-            out[path.to] += -f;
-        }
+        spool_paths::flows(self.openings(ctx.states), ctx, out);
     }
     fn port_flow(&self, ctx: &Ctx, port: usize) -> Option<(PortFlow, f64)> {
-        let s = self.spool(ctx.states);
-        let (mut sum, mut slope) = (PortFlow::default(), 0.0);
-        for path in self.paths.iter().filter(|p| p.from == port || p.to == port) {
-            let opening = match path.group {
-                Group::Side14 => s.max(0.0),
-                Group::Side12 => (-s).max(0.0),
-                Group::Centre => 1.0 - s.abs(),
-            };
-            let (a, b) = (&ctx.pneumatic[path.from], &ctx.pneumatic[path.to]);
-            let (mut f, mut da, mut db) = restriction_flow_slopes(&path.flow, opening, a, b, 0.0);
-            if let Some(leak) = &path.leak {
-                let (fl, dla, dlb) = restriction_flow_slopes(leak, 1.0 - opening, a, b, 0.0);
-                f += fl;
-                da += dla;
-                db += dlb;
-            }
-            if path.from == port {
-                sum += f;
-                slope += da;
-            } else {
-                sum += -f;
-                slope -= db;
-            }
-        }
-        Some((sum, slope))
+        Some(spool_paths::port_flow(self.openings(ctx.states), ctx, port))
     }
     fn partials(&self, phase: Phase, ctx: &Ctx, _b: &Balances, d: &mut Partials) -> bool {
         match phase {
-            Phase::Flows => {
-                let s = self.spool(ctx.states);
-                // a lagged spool moves the openings; the target itself is piecewise constant
-                let ds = match ctx.states.first() {
-                    Some(&x) if self.spool_tau > 0.0 && (-1.0..=1.0).contains(&x) => 1.0,
-                    _ => 0.0,
-                };
-                for path in &self.paths {
-                    let (opening, slope) = match path.group {
-                        Group::Side14 => (s.max(0.0), if s > 0.0 { ds } else { 0.0 }),
-                        Group::Side12 => ((-s).max(0.0), if s < 0.0 { -ds } else { 0.0 }),
-                        Group::Centre => (1.0 - s.abs(), -s.signum() * ds),
-                    };
-                    let (a, b) = (&ctx.pneumatic[path.from], &ctx.pneumatic[path.to]);
-                    let r = crate::conductance::restriction_partials(&path.flow, opening, a, b, 0.0, ctx.gas);
-                    crate::conductance::add_path(d, path.from, path.to, &r, &[(In::State(0), slope)]);
-                    if let Some(leak) = &path.leak {
-                        let r = crate::conductance::restriction_partials(leak, 1.0 - opening, a, b, 0.0, ctx.gas);
-                        crate::conductance::add_path(d, path.from, path.to, &r, &[(In::State(0), -slope)]);
-                    }
-                }
-            }
+            Phase::Flows => spool_paths::flow_partials(self.openings(ctx.states), ctx, d),
             Phase::Derivatives if self.spool_tau > 0.0 => d.set(Out::Rate(0), In::State(0), -1.0 / self.spool_tau),
             _ => {}
         }

@@ -11,10 +11,13 @@
 //! # Equations
 //! τ·ẏ = v − y (first-order instrument, Doebelin, *Measurement Systems*,
 //! §3.3); the reading starts at the initial velocity.
+//!
+//! The lag, states and partials are the shared [`crate::lagged_sensor`]
+//! pattern; this file says only what is read.
 
 use crate::block::*;
 use crate::params::{ParamSpec, Params, Range};
-use crate::support::Lag;
+use crate::lagged_sensor::{LaggedSensor, Reading};
 use units::dim;
 
 pub const PARAMS: &[ParamSpec] =
@@ -24,54 +27,29 @@ pub const PORTS: &[PortSpec] = &[
     PortSpec::signal("v", PortKind::SignalOut, "m/s", "velocity reading"),
 ];
 
+/// What a velocity sensor reads: the node's velocity.
 #[derive(Debug, Clone, PartialEq)]
-pub struct VelocitySensor {
-    pub lag: Lag,
+pub struct Velocity;
+
+impl Reading for Velocity {
+    const TYPE_NAME: &'static str = "velocity_sensor";
+    const PORTS: &'static [PortSpec] = PORTS;
+    const SCALE: f64 = 1.0;
+    const INPUT: In = In::V(0);
+    fn from_params(_p: &Params) -> Result<Self, crate::BlockError> {
+        Ok(Velocity)
+    }
+    fn value(&self, ctx: &Ctx) -> f64 {
+        ctx.mechanical[0].v
+    }
 }
 
-impl VelocitySensor {
-    pub fn from_params(p: &Params) -> Result<Self, crate::BlockError> {
-        Ok(VelocitySensor { lag: Lag { tau: p.get("time_constant") } })
-    }
-}
-
-impl Block for VelocitySensor {
-    fn type_name(&self) -> &'static str {
-        "velocity_sensor"
-    }
-    fn ports(&self) -> &[PortSpec] {
-        PORTS
-    }
-    fn gas_role(&self) -> GasRole {
-        GasRole::None
-    }
-    fn states(&self) -> &[StateSpec] {
-        self.lag.states()
-    }
-    fn state_scales(&self, _init: &[f64], out: &mut [f64]) {
-        out.fill(1.0);
-    }
-    fn initial_states_from_inputs(&self, ctx: &Ctx, states: &mut [f64]) {
-        self.lag.start_at(ctx.mechanical[0].v, states);
-    }
-    fn forces(&self, _ctx: &Ctx, out: &mut [PortForce]) {
-        out[0] = PortForce::default();
-    }
-    fn partials(&self, phase: Phase, _ctx: &Ctx, _b: &Balances, d: &mut Partials) -> bool {
-        self.lag.partials(phase, 0, &[(In::V(0), 1.0)], d);
-        true
-    }
-    fn signal_outputs(&self, ctx: &Ctx, out: &mut [f64]) {
-        out[0] = self.lag.output(ctx.mechanical[0].v, ctx.states);
-    }
-    fn derivatives(&self, ctx: &Ctx, _b: &Balances, out: &mut [f64]) {
-        self.lag.derivative(ctx.mechanical[0].v, ctx.states, out);
-    }
-}
+/// The velocity sensor: [`Velocity`] behind a first-order lag.
+pub type VelocitySensor = LaggedSensor<Velocity>;
 
 /// Registry entry of `velocity_sensor`.
 pub const TYPE: crate::registry::BlockType = crate::registry::BlockType {
-    name: "velocity_sensor",
+    name: <Velocity as Reading>::TYPE_NAME,
     family: crate::registry::Family::Sensors,
     doc: "velocity of a moving mass with a first-order lag",
     params: PARAMS,
@@ -83,11 +61,12 @@ pub const TYPE: crate::registry::BlockType = crate::registry::BlockType {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::support::Lag;
 
     #[test]
     fn derivative_is_the_first_order_law() {
         let gas = gas::IdealGas::air();
-        let s = VelocitySensor { lag: Lag { tau: 0.004 } };
+        let s = VelocitySensor { lag: Lag { tau: 0.004 }, reading: Velocity };
         let mech = [MechState { x: 0.0, v: 0.8 }];
         let ctx = Ctx { t: 0.0, gas: &gas, states: &[0.2], pneumatic: &[], mechanical: &mech, signals: &[] };
         let mut d = [0.0];
