@@ -307,12 +307,12 @@ fn render(r: &DischargeReport, data: &Path, p_atm_source: &str) -> String {
             let rt = c.rms_temperature.map(|v| format!(", T misfit {v:.3} K")).unwrap_or_default();
             let _ = writeln!(
                 s_,
-                "    tried {:<28} C = {:>9.4} L/min/bar  b = {:.4}  misfit {:>8.2} mbar{rt}  dchi2 = {:.4}{}",
+                "    tried {:<28} C = {:>9.4} L/min/bar  b = {:.4}  misfit {:>8.2} mbar{rt}  dchi2 = {}{}",
                 thermal_text(c.model, c.tau_thermal, None),
                 c.c / LPMB,
                 c.b,
                 c.rms / 100.0,
-                c.delta_chi2,
+                units::show::fixed(c.delta_chi2, 4),
                 if c.rejected { "  rejected" } else { "" }
             );
         }

@@ -4,7 +4,7 @@
 //! overrides ([`load`]), one run with its budgets and rest state ([`run`]),
 //! outputs written as one transaction and the summary JSON ([`output`]),
 //! and one module per use case: [`check`], [`simulate`], [`sweep`] (and
-//! merge), [`plot`], [`conductance`], [`discrepancy`], [`linearize`], [`draw`], [`report`],
+//! merge), [`plot`], [`conductance`], [`discrepancy`], [`linearize`], [`sensitivity`] (a run with parameter sensitivities), [`draw`], [`report`],
 //! [`fmu`] (export as an FMI 2.0 Co-Simulation FMU). Use cases take plain
 //! option structs and return values or text; a front end parses its own
 //! arguments, prints, and maps [`AppError`] to its exit status or exception.
@@ -24,6 +24,7 @@ pub mod output;
 pub mod plot;
 pub mod report;
 pub mod run;
+pub mod sensitivity;
 pub mod simulate;
 pub mod sweep;
 pub mod written_model;

@@ -11,10 +11,11 @@
 //! F=0 N; head.p=4 bar`: states, interface inputs, recorded values, each
 //! value in a unit of its own dimension), solved from the netlist's start
 //! state by `solve::linearize::trim`. Inputs and outputs
-//! are the netlist's interface section. The derivatives are central
-//! differences of the model's rates through one seam
-//! (`solve::linearize::jacobians::jacobians`), to be replaced by exact
-//! Jacobians.
+//! are the netlist's interface section, in the order it writes them. The
+//! derivatives come through one seam (`solve::linearize::jacobians::jacobians`:
+//! A exact, B, C, D central differences). Each output/input pair gets its
+//! poles, zeros and gain (`linear::zeros`); `--bode FILE.svg|png` draws the
+//! Bode data (`crate::plot::bode_image`).
 
 use crate::error::AppError;
 use crate::load::netlist_with_files;
@@ -37,12 +38,26 @@ pub struct LinearizeOptions {
     pub out: Option<PathBuf>,
     /// Keep the states that reach no output.
     pub keep_all_states: bool,
+    /// A Bode picture (magnitude and phase of every pair), PNG or SVG by the extension.
+    pub bode: Option<PathBuf>,
+}
+
+/// Bode data: frequencies [Hz] and (pair "output/input", magnitudes [dB], phases [deg]).
+pub type BodeData = (Vec<f64>, Vec<(String, Vec<f64>, Vec<f64>)>);
+
+/// Poles, zeros and gain of one input–output pair (its minimal realisation).
+pub struct Pair {
+    pub output: String,
+    pub input: String,
+    pub pole_zero: linear::zeros::PoleZero,
 }
 
 /// The linear model and its report.
 pub struct Linearized {
     pub model: LinearModel,
     pub modes: Vec<linear::modal::Mode>,
+    /// Every output/input pair, output-major (output i, input j at `i * m + j`).
+    pub pairs: Vec<Pair>,
     /// Everything as JSON (what `--json` prints and `linear.json` holds).
     pub json: serde_json::Value,
 }
@@ -117,7 +132,8 @@ pub fn linearize(o: &LinearizeOptions) -> Result<Linearized, AppError> {
     let inputs: Vec<&Path> = inputs.iter().map(|p| p.as_path()).collect();
     let mut outputs = Transaction::new(&inputs);
     let files = ["A.csv", "B.csv", "C.csv", "D.csv", "modes.csv", "bode.csv", "linear.json"];
-    let targets: Vec<PathBuf> = o.out.iter().flat_map(|d| files.iter().map(move |f| d.join(f))).collect();
+    let mut targets: Vec<PathBuf> = o.out.iter().flat_map(|d| files.iter().map(move |f| d.join(f))).collect();
+    targets.extend(o.bode.iter().cloned());
     outputs.check_targets(&targets.iter().map(|p| p.as_path()).collect::<Vec<_>>())?;
     for s in &o.sets {
         graph::apply_set(&mut flat, s)?;
@@ -137,6 +153,13 @@ pub fn linearize(o: &LinearizeOptions) -> Result<Linearized, AppError> {
         outputs.add(&dir.join("modes.csv"), modes_csv(&r.modes).as_bytes())?;
         outputs.add(&dir.join("bode.csv"), bode.as_bytes())?;
         outputs.add(&dir.join("linear.json"), serde_json::to_string_pretty(&r.json).unwrap_or_default().as_bytes())?;
+    }
+    if let Some(path) = &o.bode {
+        let (f, pairs) = r.bode_data()?;
+        let title =
+            format!("Bode: {} at {}", o.model.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default(), o.at.trim());
+        let image = crate::plot::bode_image(&title, &f, &pairs, path)?;
+        outputs.add(path, &image)?;
     }
     outputs.commit()?;
     Ok(r)
@@ -166,8 +189,37 @@ fn linearize_at(flat: &graph::FlatNetlist, at: At, keep_all_states: bool) -> Res
     };
     let lm = linearize::linearize(&mut driven, &op, &Options { keep_all_states, ..Options::default() }).map_err(data)?;
     let modes = linear::modal::modes(&lm.a).map_err(data)?;
-    let json = to_json(&lm, &modes);
-    Ok(Linearized { model: lm, modes, json })
+    let pairs = pairs(&lm)?;
+    let json = to_json(&lm, &modes, &pairs);
+    Ok(Linearized { model: lm, modes, pairs, json })
+}
+
+/// Poles, zeros and gain of every output/input pair.
+fn pairs(lm: &LinearModel) -> Result<Vec<Pair>, AppError> {
+    let mut out = Vec::new();
+    for (i, output) in lm.outputs.iter().enumerate() {
+        for (j, input) in lm.inputs.iter().enumerate() {
+            let b: Vec<f64> = (0..lm.states.len()).map(|k| lm.b[(k, j)]).collect();
+            let c: Vec<f64> = (0..lm.states.len()).map(|k| lm.c[(i, k)]).collect();
+            let pole_zero = linear::zeros::pole_zero(&lm.a, &b, &c, lm.d[(i, j)]).map_err(data)?;
+            out.push(Pair { output: output.name.clone(), input: input.name.clone(), pole_zero });
+        }
+    }
+    Ok(out)
+}
+
+/// Roots as text, a complex pair once as "re ± imj" (sorted as [`linear::zeros`] sorts them).
+fn roots_text(roots: &[linear::Complex]) -> String {
+    let shown: Vec<String> = roots
+        .iter()
+        .filter(|z| z.im >= 0.0)
+        .map(|z| if z.im > 0.0 { format!("{:.6e} ± {:.6e}j", z.re, z.im) } else { format!("{:.6e}", z.re) })
+        .collect();
+    if shown.is_empty() {
+        "none".to_string()
+    } else {
+        shown.join(", ")
+    }
 }
 
 impl Linearized {
@@ -188,27 +240,36 @@ impl Linearized {
         linear::frequency::response(&lm.a, &lm.b, &lm.c, &lm.d, f_hz).map_err(data)
     }
 
-    /// Bode data of every input–output pair at the default frequencies
-    /// (`bode.csv`): frequency [Hz], then magnitude [dB] and phase [deg] per
-    /// pair, "output/input".
-    pub fn bode_csv(&self) -> Result<String, AppError> {
+    /// Bode data of every input–output pair at the default frequencies:
+    /// the frequencies [Hz] and, per pair "output/input" (output-major),
+    /// magnitudes [dB] and unwrapped phases [deg].
+    pub fn bode_data(&self) -> Result<BodeData, AppError> {
         let f = self.bode_frequencies();
         let h = self.frequency_response(&f)?;
         let lm = &self.model;
         let (p, m) = (lm.outputs.len(), lm.inputs.len());
-        let mut s = String::from("f [Hz]");
-        let mut columns = Vec::new();
+        let mut pairs = Vec::new();
         for i in 0..p {
             for j in 0..m {
-                let _ = write!(s, ",{o}/{u} magnitude [dB],{o}/{u} phase [deg]", o = lm.outputs[i].name, u = lm.inputs[j].name);
                 let (mag, phase) = linear::frequency::bode(&h.iter().map(|hk| hk[i * m + j]).collect::<Vec<_>>());
-                columns.push((mag, phase));
+                pairs.push((format!("{}/{}", lm.outputs[i].name, lm.inputs[j].name), mag, phase));
             }
+        }
+        Ok((f, pairs))
+    }
+
+    /// [`Linearized::bode_data`] as `bode.csv`: frequency [Hz], then
+    /// magnitude [dB] and phase [deg] per pair.
+    pub fn bode_csv(&self) -> Result<String, AppError> {
+        let (f, columns) = self.bode_data()?;
+        let mut s = String::from("f [Hz]");
+        for (pair, _, _) in &columns {
+            let _ = write!(s, ",{pair} magnitude [dB],{pair} phase [deg]");
         }
         s.push('\n');
         for (k, fk) in f.iter().enumerate() {
             let _ = write!(s, "{fk:e}");
-            for (mag, phase) in &columns {
+            for (_, mag, phase) in &columns {
                 let _ = write!(s, ",{:e},{:e}", mag[k], phase[k]);
             }
             s.push('\n');
@@ -242,7 +303,9 @@ fn modes_csv(modes: &[linear::modal::Mode]) -> String {
     s
 }
 
-fn to_json(lm: &LinearModel, modes: &[linear::modal::Mode]) -> serde_json::Value {
+fn to_json(lm: &LinearModel, modes: &[linear::modal::Mode], pairs: &[Pair]) -> serde_json::Value {
+    let complex = |v: &[linear::Complex]| v.iter().map(|z| serde_json::json!({ "re": z.re, "im": z.im })).collect::<Vec<_>>();
+    let finite = |x: f64| if x.is_finite() { serde_json::json!(x) } else { serde_json::Value::Null };
     let named = |v: &[linearize::Named]| v.iter().map(|n| serde_json::json!({ "name": n.name, "unit": n.unit })).collect::<Vec<_>>();
     serde_json::json!({
         "operating_point": { "t": lm.t, "kind": match lm.kind { PointKind::Time => "time", PointKind::Rest => "rest", PointKind::Trim => "trim" },
@@ -257,6 +320,11 @@ fn to_json(lm: &LinearModel, modes: &[linear::modal::Mode]) -> serde_json::Value
             "re": m.eigenvalue.re, "im": m.eigenvalue.im, "pair": m.pair,
             "natural_frequency_rad_s": m.natural_frequency, "frequency_hz": m.frequency_hz(),
             "damping": if m.damping.is_finite() { serde_json::json!(m.damping) } else { serde_json::Value::Null },
+        })).collect::<Vec<_>>(),
+        "pairs": pairs.iter().map(|p| serde_json::json!({
+            "output": p.output, "input": p.input, "order": p.pole_zero.order,
+            "poles": complex(&p.pole_zero.poles), "zeros": complex(&p.pole_zero.zeros),
+            "gain": finite(p.pole_zero.gain), "dc_gain": p.pole_zero.dc_gain.map(finite),
         })).collect::<Vec<_>>(),
         "mechanics": lm.mechanics.iter().map(|n| serde_json::json!({ "id": n.id, "mode": n.description })).collect::<Vec<_>>(),
         "left_out": lm.left_out.iter().map(|(s, why)| serde_json::json!({ "state": s, "why": why })).collect::<Vec<_>>(),
@@ -301,6 +369,21 @@ pub fn text(r: &Linearized) -> String {
             if m.pair { format!("{:.6e} ± {:.6e}j", m.eigenvalue.re, m.eigenvalue.im) } else { format!("{:.6e}", m.eigenvalue.re) };
         let _ =
             writeln!(s, "  λ = {lambda} 1/s: ω_n = {:.6} rad/s ({:.4} Hz), ζ = {:.4}", m.natural_frequency, m.frequency_hz(), m.damping);
+    }
+    if !r.pairs.is_empty() {
+        let _ = writeln!(s, "poles and zeros per pair, G(s) = k Π(s − z)/Π(s − p) of its minimal realisation:");
+    }
+    let unit = |v: &[linearize::Named], name: &str| v.iter().find(|n| n.name == name).map(|n| n.unit.clone()).unwrap_or_default();
+    for p in &r.pairs {
+        let pz = &p.pole_zero;
+        let per = format!("{}/{}", unit(&lm.outputs, &p.output), unit(&lm.inputs, &p.input));
+        let dc = match pz.dc_gain {
+            Some(g) => format!("{g:.6e} {per}"),
+            None => "none (a pole at 0)".to_string(),
+        };
+        let _ = writeln!(s, "  {}/{}: order {}, k = {:.6e}, DC gain {dc}", p.output, p.input, pz.order, pz.gain);
+        let _ = writeln!(s, "    poles: {}", roots_text(&pz.poles));
+        let _ = writeln!(s, "    zeros: {}", roots_text(&pz.zeros));
     }
     if let Some(t) = &lm.trim {
         let list = |v: &[linearize::trim::TrimValue]| {

@@ -176,6 +176,34 @@ pub fn traces_image(result: &solve::SimResult, columns: &[usize], path: &Path, t
     render(&figure, path)
 }
 
+/// A Bode picture (`pneumo linearize --bode`): magnitude [dB] and phase
+/// [deg] of each input–output pair against frequency [Hz] on a logarithmic
+/// axis, one panel each; PNG or SVG by the path's extension. `pairs` are
+/// (label, magnitudes, phases) at the frequencies `f_hz`; a non-finite value
+/// (a pair that is identically zero has −∞ dB) breaks the line.
+pub fn bode_image(title: &str, f_hz: &[f64], pairs: &[(String, Vec<f64>, Vec<f64>)], path: &Path) -> Result<Vec<u8>, AppError> {
+    format_of(path)?;
+    if pairs.is_empty() || f_hz.is_empty() {
+        return Err(AppError::Usage("no Bode picture: the linear model has no input–output pair".into()));
+    }
+    let trace = |label: &str, values: &[f64]| Trace {
+        label: label.to_string(),
+        points: f_hz.iter().zip(values).map(|(&f, &v)| (f, v.is_finite().then_some(v))).collect(),
+        markers: false,
+    };
+    let figure = Figure {
+        title: title.to_string(),
+        x_desc: "frequency [Hz] (log scale)".into(),
+        panels: vec![
+            Panel { y_desc: "magnitude [dB]".into(), traces: pairs.iter().map(|(l, m, _)| trace(l, m)).collect() },
+            Panel { y_desc: "phase [deg]".into(), traces: pairs.iter().map(|(l, _, p)| trace(l, p)).collect() },
+        ],
+        note: None,
+        x_log: true,
+    };
+    render(&figure, path)
+}
+
 /// Drop points outside [lo, hi] so that the axes span only that range.
 fn clip_vertical(figure: &mut Figure, lo: f64, hi: f64) {
     for panel in &mut figure.panels {

@@ -77,7 +77,12 @@ pub fn prepare(mut flat: FlatNetlist, spec: &RunSpec) -> Result<Prepared, AppErr
 /// first is still a result; `incomplete` then says where it stalled.
 pub fn execute(mut p: Prepared) -> Result<Run, AppError> {
     let result = solve::simulate(&mut p.model, &p.opts)?;
-    let incomplete = match p.opts.cycles {
+    Ok(finished(p.name, result, &p.opts))
+}
+
+/// A finished run: says if it did less than `opts` asked.
+pub(crate) fn finished(name: String, result: solve::SimResult, opts: &solve::SimOptions) -> Run {
+    let incomplete = match opts.cycles {
         Some(n) if result.completed_cycles() < n => Some(format!(
             "only {} of {n} cycles completed by t = {:.3} s: {}",
             result.completed_cycles(),
@@ -86,5 +91,5 @@ pub fn execute(mut p: Prepared) -> Result<Run, AppError> {
         )),
         _ => None,
     };
-    Ok(Run { name: p.name, result, incomplete })
+    Run { name, result, incomplete }
 }

@@ -222,6 +222,15 @@ fn conductance_reads_pneumo_simulates_own_csv_by_column() {
     );
     let (c, b) = c_and_b(&rep);
     assert!((c / 100.0 - 1.0).abs() < 0.02 && (b - 0.3).abs() < 0.05, "C {c} b {b}");
+    // the text report prints every number readably: the rejected isothermal
+    // limit's dchi2 (~7e17 on noise-free data) once printed 18 digits
+    let args =
+        ["conductance", "--volume", "1 L", "--data", "r.csv", "--p-column", "tank.p", "--T-column", "tank.T", "--p-atm", "1.013 bar"];
+    let out = pneumo(&dir.0, &args);
+    let report = text(&out.stdout);
+    assert!(out.status.success() && report.contains("isothermal limit rejected"), "{report}");
+    let longest_digits = report.split(|c: char| !c.is_ascii_digit()).map(str::len).max().unwrap_or(0);
+    assert!(longest_digits <= 10, "a number printed with {longest_digits} digits in a row:\n{report}");
     // without the option, the message says which option reads this file
     let out = pneumo(&dir.0, &["conductance", "--volume", "1 L", "--data", "r.csv"]);
     let err = text(&out.stderr);

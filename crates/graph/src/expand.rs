@@ -62,10 +62,10 @@ pub struct FlatNetlist {
     pub aliases: BTreeMap<String, Vec<String>>,
     /// File of the top-level netlist.
     pub origin: String,
-    /// The top-level netlist's model inputs (an included subsystem's are not kept).
-    pub inputs: BTreeMap<String, crate::netlist::InputDecl>,
-    /// The top-level netlist's model outputs.
-    pub outputs: BTreeMap<String, crate::netlist::OutputDecl>,
+    /// The top-level netlist's model inputs, in the order it writes them (an included subsystem's are not kept).
+    pub inputs: crate::netlist::OrderedMap<crate::netlist::InputDecl>,
+    /// The top-level netlist's model outputs, in the order it writes them.
+    pub outputs: crate::netlist::OrderedMap<crate::netlist::OutputDecl>,
 }
 
 impl FlatNetlist {

@@ -173,7 +173,8 @@ fn outputs_bind_signals_recorded_values_and_running_totals() {
     } }));
     let c = build(&n, Drive::Standalone).unwrap();
     let names: Vec<&str> = c.interface.outputs.iter().map(|o| o.name.as_str()).collect();
-    assert_eq!(names, ["T_rod", "air", "m_head", "p_head", "x"], "outputs in name order");
+    // (json! writes an object's keys sorted; the written order is kept, see below)
+    assert_eq!(names, ["T_rod", "air", "m_head", "p_head", "x"], "outputs in the order written");
     let out = |name: &str| c.interface.output(name).unwrap();
     let piston = c.find("piston").unwrap();
     assert_eq!(out("x").source, OutputSource::Signal { block: piston, index: 0 });
@@ -182,6 +183,46 @@ fn outputs_bind_signals_recorded_values_and_running_totals() {
     assert!(matches!(out("m_head").source, OutputSource::Recorded { .. }));
     assert!(matches!(out("air").source, OutputSource::Quadrature { .. }));
     assert!((out("T_rod").unit.from_si(293.15) - 20.0).abs() < 1e-12);
+}
+
+/// The netlist `meter_out` with the interface section as raw text (json!
+/// would sort its keys).
+fn with_raw_interface(raw: &str) -> String {
+    meter_out(json!("INTERFACE")).to_string().replace("\"INTERFACE\"", raw)
+}
+
+#[test]
+fn inputs_and_outputs_keep_the_order_the_file_writes_them_in() {
+    let text = with_raw_interface(
+        r#"{ "inputs": { "valve": { "port": "dcv.command" }, "F": { "parameter": "piston.external_force" } },
+             "outputs": { "x": "piston.x", "p_rod": "rod.p", "air": "supply.delivered", "p_head": "head.p" } }"#,
+    );
+    let flat = graph::load(&Rig(text), Path::new("rig.json")).unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(flat.inputs.keys().collect::<Vec<_>>(), ["valve", "F"]);
+    let c = graph::build_with(&flat, Drive::External).unwrap_or_else(|e| panic!("{e}"));
+    let inputs: Vec<&str> = c.interface.inputs.iter().map(|i| i.name.as_str()).collect();
+    let outputs: Vec<&str> = c.interface.outputs.iter().map(|o| o.name.as_str()).collect();
+    assert_eq!(inputs, ["valve", "F"]);
+    assert_eq!(outputs, ["x", "p_rod", "air", "p_head"]);
+    // written back (a written model, an FMU's resources) in the same order
+    let netlist = graph::expand::parse(&with_raw_interface(r#"{ "outputs": { "x": "piston.x", "p_rod": "rod.p" } }"#), "rig.json").unwrap();
+    let again = serde_json::to_string(&netlist.interface).unwrap();
+    assert!(again.find("\"x\"").unwrap() < again.find("\"p_rod\"").unwrap(), "{again}");
+}
+
+#[test]
+fn a_name_given_twice_is_refused() {
+    for raw in [
+        r#"{ "outputs": { "x": "piston.x", "p": "head.p", "x": "rod.p" } }"#,
+        r#"{ "inputs": { "F": { "parameter": "piston.external_force" }, "F": { "port": "dcv.command" } } }"#,
+    ] {
+        let e = graph::load(&Rig(with_raw_interface(raw)), Path::new("rig.json"))
+            .err()
+            .unwrap_or_else(|| panic!("{raw}: accepted"))
+            .to_string();
+        assert_names(&e, &["rig.json", "is given twice"]);
+        assert_eq!(e.lines().count(), 1, "{e}");
+    }
 }
 
 #[test]

@@ -1120,11 +1120,11 @@ fn auto_select(
         (None, _) => "tau_T free: fit failed".to_string(),
     };
     let tests = format!(
-        "{free_text}; adiabatic limit {} (dchi2 = {:.4}), isothermal limit {} (dchi2 = {:.4}); a limit is kept when dchi2 <= {LIMIT_REJECTION_CHI2} or tau_T/tau lies beyond [{ISOTHERMAL_RATIO}, {ADIABATIC_RATIO}]",
+        "{free_text}; adiabatic limit {} (dchi2 = {}), isothermal limit {} (dchi2 = {}); a limit is kept when dchi2 <= {LIMIT_REJECTION_CHI2} or tau_T/tau lies beyond [{ISOTHERMAL_RATIO}, {ADIABATIC_RATIO}]",
         verdict(ad_stat, ad_ok),
-        d_ad,
+        units::show::fixed(d_ad, 4),
         verdict(iso_stat, iso_ok),
-        d_iso
+        units::show::fixed(d_iso, 4)
     );
     let (chosen, decision) = match (ad_ok, iso_ok, free) {
         (true, true, _) => {

@@ -20,6 +20,19 @@ pub(crate) struct StepDense<'a> {
     pub y1: &'a [f64],
     pub q1: &'a [f64],
     pub q2: &'a [f64],
+    /// Sensitivity columns of the step (empty without sensitivities).
+    pub sens: &'a [SensColumn],
+}
+
+/// One forward sensitivity column over an accepted step: its value at the
+/// step start and end and the coefficients of its dense output (the same
+/// formula as the state's, from the column's own stage increments).
+#[derive(Debug, Clone, Default)]
+pub(crate) struct SensColumn {
+    pub s0: Vec<f64>,
+    pub s1: Vec<f64>,
+    pub q1: Vec<f64>,
+    pub q2: Vec<f64>,
 }
 
 impl StepDense<'_> {
@@ -49,5 +62,11 @@ impl Dense for StepDense<'_> {
     }
     fn eval(&self, t: f64, out: &mut [f64]) {
         self.interpolate(t, out);
+    }
+    fn eval_sensitivity(&self, k: usize, t: f64, out: &mut [f64]) -> bool {
+        let Some(c) = self.sens.get(k) else { return false };
+        let view = StepDense { t0: self.t0, t1: self.t1, t_end: self.t_end, y0: &c.s0, y1: &c.s1, q1: &c.q1, q2: &c.q2, sens: &[] };
+        view.interpolate(t, out);
+        true
     }
 }

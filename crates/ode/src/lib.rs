@@ -85,6 +85,8 @@ mod tableau;
 #[cfg(test)]
 mod tests;
 #[cfg(test)]
+mod tests_sensitivity;
+#[cfg(test)]
 mod tests_structure;
 
 pub use rosenbrock::{Rosenbrock, SPARSE_LU_MIN_STATES};
@@ -164,6 +166,13 @@ pub trait OdeSystem {
     /// function [`RootDirection::Either`].
     fn root_directions(&self, out: &mut [RootDirection]) {
         out.fill(RootDirection::Either);
+    }
+    /// Right-hand side of forward sensitivity column `k` (`s_k = ∂y/∂θ_k`)
+    /// at (t, y): `out = ∂f/∂y(t, y)·s + ∂f/∂θ_k(t, y)`, given
+    /// `f = f(t, y)`. Called only while the integrator has sensitivity
+    /// columns ([`Rosenbrock::set_sensitivities`]).
+    fn sensitivity_rhs(&mut self, _k: usize, _t: f64, _y: &[f64], _f: &[f64], _s: &[f64], _out: &mut [f64]) -> Result<(), RhsError> {
+        Err(RhsError("the system declares sensitivities but does not compute their right-hand side".into()))
     }
 }
 
@@ -291,6 +300,11 @@ pub trait Dense {
     /// Interpolated state at `t` (should lie in `[t_start, t_end]`; outside it the
     /// polynomial is extrapolated). `out` must have the system dimension.
     fn eval(&self, t: f64, out: &mut [f64]);
+    /// Interpolated sensitivity column `k` at `t` (see
+    /// [`OdeSystem::sensitivity_rhs`]); false if the step has none.
+    fn eval_sensitivity(&self, _k: usize, _t: f64, _out: &mut [f64]) -> bool {
+        false
+    }
 }
 
 /// Outcome of [`Integrator::advance`].

@@ -42,7 +42,7 @@
 
 use nalgebra::DMatrix;
 
-use crate::dense::StepDense;
+use crate::dense::{SensColumn, StepDense};
 use crate::lu::LuFactors;
 use crate::roots::{changed, watch, RootFinder};
 use crate::sparse_lu::SparseLu;
@@ -175,6 +175,16 @@ pub struct Rosenbrock {
     have_acc: bool,
     fixed_h: Option<f64>,
     stats: Stats,
+    /// Forward sensitivity columns (see [`Rosenbrock::set_sensitivities`]).
+    sens: Vec<SensColumn>,
+    /// Stage arguments and right-hand sides of the last attempt, kept for
+    /// the sensitivity stages (only while there are sensitivity columns).
+    stage_y: Vec<Vec<f64>>,
+    stage_f: Vec<Vec<f64>>,
+    /// Work buffers of the sensitivity stages.
+    sens_u: Vec<Vec<f64>>,
+    sens_arg: Vec<f64>,
+    sens_f0: Vec<f64>,
 }
 
 impl Rosenbrock {
@@ -236,6 +246,12 @@ impl Rosenbrock {
             have_acc: false,
             fixed_h: None,
             stats: Stats::default(),
+            sens: Vec::new(),
+            stage_y: Vec::new(),
+            stage_f: Vec::new(),
+            sens_u: Vec::new(),
+            sens_arg: Vec::new(),
+            sens_f0: Vec::new(),
         };
         me.resize(dim);
         me
@@ -275,6 +291,120 @@ impl Rosenbrock {
     /// Meant for convergence studies.
     pub fn set_fixed_step(&mut self, h: Option<f64>) {
         self.fixed_h = h.filter(|h| h.is_finite() && *h > 0.0);
+    }
+
+    /// Integrate forward sensitivities `s_k = ∂y/∂θ_k` beside the state,
+    /// starting from `columns` at the point of the next `advance` (one
+    /// column of the system dimension per parameter; empty to stop). The
+    /// system computes each column's right-hand side
+    /// ([`OdeSystem::sensitivity_rhs`]). The columns take the state's steps
+    /// (its error control alone chooses them) and the state's stages: each
+    /// accepted step solves, for every column, the stage equations
+    /// `W v_i = F_k(t_i, Y_i, s0 + Σ a_ij v_j) + Σ (γc_ij/h) v_j` with the
+    /// step's factored `W = I/(hγ) − J` and stage arguments `Y_i`, where
+    /// `F_k(t, y, s) = J(t, y) s + ∂f/∂θ_k(t, y)`; the `h d_i ∂F/∂t` term is
+    /// left out (zero for a system with no explicit time dependence). For
+    /// the W-method ROS34PW2 this is the method itself applied to the pair
+    /// (x, s) with a matrix that leaves out the pair's coupling block
+    /// `∂(J s)/∂y` — a W-method keeps its order 3 with any matrix. RODAS4
+    /// needs the exact Jacobian of the pair for its order: without the
+    /// coupling block its sensitivities are of low order (measured: 7e-4
+    /// relative error at rtol 1e-8 on `tests_sensitivity.rs`'s problem,
+    /// against 2e-9 for ROS34PW2), so use ROS34PW2 for sensitivities.
+    pub fn set_sensitivities(&mut self, columns: &[Vec<f64>]) {
+        self.sens =
+            columns.iter().map(|c| SensColumn { s0: c.clone(), s1: c.clone(), q1: vec![0.0; c.len()], q2: vec![0.0; c.len()] }).collect();
+    }
+
+    /// Sensitivity column `k` at the current point (after an `advance`, at
+    /// the point it returned); panics if `k` is not below the number of columns.
+    pub fn sensitivity(&self, k: usize) -> &[f64] {
+        &self.sens[k].s0
+    }
+
+    /// Number of sensitivity columns.
+    pub fn n_sensitivities(&self) -> usize {
+        self.sens.len()
+    }
+
+    /// One accepted step (t0 → t0 + h) of every sensitivity column, with the
+    /// stages kept by the last attempt and its factored matrix; `f1` is
+    /// f at the step end (for the Hermite dense output).
+    fn sensitivity_step(&mut self, sys: &mut dyn OdeSystem, t0: f64, h: f64) -> Result<(), IntegratorError> {
+        let n = self.n;
+        let ns = n - self.nq;
+        let stages = self.tableau.stages;
+        if self.sens_u.len() != stages || self.sens_arg.len() != n {
+            self.sens_u = (0..stages).map(|_| vec![0.0; n]).collect();
+            self.sens_arg = vec![0.0; n];
+            self.sens_f0 = vec![0.0; n];
+        }
+        let inv_h = 1.0 / h;
+        let hg = h * self.tableau.gamma;
+        for k in 0..self.sens.len() {
+            if self.sens[k].s0.len() != n {
+                let message = format!("sensitivity column {k} has {} entries, the system {n}", self.sens[k].s0.len());
+                return Err(IntegratorError::Rhs { t: t0, source: RhsError(message) });
+            }
+            for st in 0..stages {
+                let (done, rest) = self.sens_u.split_at_mut(st);
+                let vi = &mut rest[0];
+                let arow = &self.tableau.a[st];
+                for i in 0..n {
+                    let mut v = self.sens[k].s0[i];
+                    for (j, vj) in done.iter().enumerate() {
+                        v += arow[j] * vj[i];
+                    }
+                    self.sens_arg[i] = v;
+                }
+                let ts = t0 + self.tableau.c[st] * h;
+                sys.sensitivity_rhs(k, ts, &self.stage_y[st], &self.stage_f[st], &self.sens_arg, vi)
+                    .map_err(|source| IntegratorError::Rhs { t: ts, source })?;
+                if st == 0 {
+                    self.sens_f0.copy_from_slice(vi);
+                }
+                let grow = &self.tableau.gc[st];
+                for i in 0..n {
+                    let mut v = vi[i];
+                    for (j, vj) in done.iter().enumerate() {
+                        v += grow[j] * inv_h * vj[i];
+                    }
+                    vi[i] = v;
+                }
+                solve_w(self.sparse.as_mut(), &self.lu, &self.jac, ns, hg, vi);
+            }
+            let c = &mut self.sens[k];
+            for i in 0..n {
+                let mut v = c.s0[i];
+                for (j, vj) in self.sens_u.iter().enumerate() {
+                    v += self.tableau.m[j] * vj[i];
+                }
+                c.s1[i] = v;
+                if !v.is_finite() {
+                    return Err(IntegratorError::NonFinite { t: t0 + h, index: i });
+                }
+            }
+            match &self.tableau.dense {
+                DenseKind::Rodas { e1, e2 } => {
+                    for i in 0..n {
+                        c.q1[i] = (0..e1.len()).map(|j| e1[j] * self.sens_u[j][i]).sum();
+                        c.q2[i] = (0..e2.len()).map(|j| e2[j] * self.sens_u[j][i]).sum();
+                    }
+                }
+                DenseKind::Hermite => {
+                    let mut f_end = std::mem::take(&mut self.sens_arg);
+                    sys.sensitivity_rhs(k, t0 + h, &self.y1, &self.f1, &c.s1, &mut f_end)
+                        .map_err(|source| IntegratorError::Rhs { t: t0 + h, source })?;
+                    for i in 0..n {
+                        let delta = c.s1[i] - c.s0[i];
+                        c.q1[i] = h * self.sens_f0[i] - delta;
+                        c.q2[i] = 2.0 * delta - h * (self.sens_f0[i] + f_end[i]);
+                    }
+                    self.sens_arg = f_end;
+                }
+            }
+        }
+        Ok(())
     }
 
     /// The options in use (after sanitising).
@@ -591,6 +721,11 @@ impl Rosenbrock {
         if factored.is_err() {
             return Ok(Attempt::Singular);
         }
+        let keep_stages = !self.sens.is_empty();
+        if keep_stages && (self.stage_y.len() != self.tableau.stages || self.stage_y[0].len() != n) {
+            self.stage_y = (0..self.tableau.stages).map(|_| vec![0.0; n]).collect();
+            self.stage_f = (0..self.tableau.stages).map(|_| vec![0.0; n]).collect();
+        }
         let tab = &self.tableau;
         let u = &mut self.u;
         let ytmp = &mut self.ytmp;
@@ -630,32 +765,11 @@ impl Rosenbrock {
                 }
                 ui[i] = v;
             }
-            // W = [W_ss 0; −J_qs I/(hγ)]: solve the states, then the quadratures
-            let hg = h * tab.gamma;
-            match sparse.as_deref_mut() {
-                Some(sp) => {
-                    match sp.lu.as_mut() {
-                        Some(slu) => slu.solve(&mut ui[..ns]),
-                        None => lu.solve(&mut ui[..ns]),
-                    }
-                    for &(q, j, k) in &sp.quadrature {
-                        ui[q] += sp.values[k] * ui[j];
-                    }
-                    for q in ns..n {
-                        ui[q] *= hg;
-                    }
-                }
-                None => {
-                    lu.solve(&mut ui[..ns]);
-                    for q in ns..n {
-                        let mut v = ui[q];
-                        for j in 0..ns {
-                            v += jac[(q, j)] * ui[j];
-                        }
-                        ui[q] = hg * v;
-                    }
-                }
+            if keep_stages {
+                self.stage_y[st].copy_from_slice(if st == 0 { y } else { &ytmp[..] });
+                self.stage_f[st].copy_from_slice(f);
             }
+            solve_w(sparse.as_deref_mut(), lu, jac, ns, h * tab.gamma, ui);
         }
         for i in 0..n {
             let mut v = y[i];
@@ -756,6 +870,37 @@ impl Rosenbrock {
         self.h_acc = h;
         self.err_acc = err.max(1e-2);
         fac
+    }
+}
+
+/// Solve `W x = b` in place (`ui` holds b) for the iteration matrix
+/// `W = [W_ss 0; −J_qs I/(hγ)]`: the states with the factored `W_ss`, then
+/// the quadratures.
+fn solve_w(sparse: Option<&mut SparseJacobian>, lu: &LuFactors, jac: &DMatrix<f64>, ns: usize, hg: f64, ui: &mut [f64]) {
+    let n = ui.len();
+    match sparse {
+        Some(sp) => {
+            match sp.lu.as_mut() {
+                Some(slu) => slu.solve(&mut ui[..ns]),
+                None => lu.solve(&mut ui[..ns]),
+            }
+            for &(q, j, k) in &sp.quadrature {
+                ui[q] += sp.values[k] * ui[j];
+            }
+            for q in ns..n {
+                ui[q] *= hg;
+            }
+        }
+        None => {
+            lu.solve(&mut ui[..ns]);
+            for q in ns..n {
+                let mut v = ui[q];
+                for j in 0..ns {
+                    v += jac[(q, j)] * ui[j];
+                }
+                ui[q] = hg * v;
+            }
+        }
     }
 }
 
@@ -934,6 +1079,9 @@ impl Integrator for Rosenbrock {
             singular = 0;
             let t0 = *t;
             self.prepare_dense(y, t1 - t0);
+            if !self.sens.is_empty() {
+                self.sensitivity_step(sys, t0, t1 - t0)?;
+            }
 
             // Next step size.
             let mut h_new = if let Some(hf) = self.fixed_h {
@@ -957,7 +1105,7 @@ impl Integrator for Rosenbrock {
             let m = self.g0.len();
             let mut root_at = None;
             if m > 0 {
-                let dense = StepDense { t0, t1, t_end: t1, y0: y, y1: &self.y1, q1: &self.q1, q2: &self.q2 };
+                let dense = StepDense { t0, t1, t_end: t1, y0: y, y1: &self.y1, q1: &self.q1, q2: &self.q2, sens: &self.sens };
                 // Side each function is watched from. Only an `Either` function that
                 // is zero at the start with no side seen since the restart needs a
                 // value after the start (see `roots::watch`).
@@ -1010,10 +1158,15 @@ impl Integrator for Rosenbrock {
             }
 
             if let Some(tr) = root_at {
-                let dense = StepDense { t0, t1, t_end: tr, y0: y, y1: &self.y1, q1: &self.q1, q2: &self.q2 };
+                let dense = StepDense { t0, t1, t_end: tr, y0: y, y1: &self.y1, q1: &self.q1, q2: &self.q2, sens: &self.sens };
                 dense.interpolate(tr, &mut self.y_root);
                 observer(&dense);
                 let indices: Vec<usize> = (0..m).filter(|&i| changed(self.watch[i], self.g_ret[i])).collect();
+                for c in self.sens.iter_mut() {
+                    let view = StepDense { t0, t1, t_end: tr, y0: &c.s0, y1: &c.s1, q1: &c.q1, q2: &c.q2, sens: &[] };
+                    view.interpolate(tr, &mut self.y1); // y1 is free now: y_root holds the state at tr
+                    c.s0.copy_from_slice(&self.y1);
+                }
                 y.copy_from_slice(&self.y_root);
                 *t = tr;
                 // The caller is expected to change the system here; nothing is cached.
@@ -1024,7 +1177,7 @@ impl Integrator for Rosenbrock {
             }
 
             {
-                let dense = StepDense { t0, t1, t_end: t1, y0: y, y1: &self.y1, q1: &self.q1, q2: &self.q2 };
+                let dense = StepDense { t0, t1, t_end: t1, y0: y, y1: &self.y1, q1: &self.q1, q2: &self.q2, sens: &self.sens };
                 observer(&dense);
             }
             // Sides seen at the step end carry over to the next step (a step may end
@@ -1038,6 +1191,9 @@ impl Integrator for Rosenbrock {
             }
             y.copy_from_slice(&self.y1);
             *t = t1;
+            for c in self.sens.iter_mut() {
+                std::mem::swap(&mut c.s0, &mut c.s1);
+            }
             std::mem::swap(&mut self.f0, &mut self.f1);
             std::mem::swap(&mut self.g0, &mut self.g1);
             self.t_cache = t1;

@@ -207,19 +207,27 @@ impl Netlist {
     }
 
     /// Simulate (GIL released, Ctrl-C honoured). `cycles`/`t_end` as in
-    /// `pneumo simulate`.
-    #[pyo3(signature = (cycles = None, t_end = None))]
-    fn simulate(&self, py: Python<'_>, cycles: Option<u64>, t_end: Option<f64>) -> PyResult<RawResult> {
+    /// `pneumo simulate`; with `sensitivities` (netlist parameters
+    /// "ID.PARAM") also their forward sensitivities.
+    #[pyo3(signature = (cycles = None, t_end = None, sensitivities = None))]
+    fn simulate(&self, py: Python<'_>, cycles: Option<u64>, t_end: Option<f64>, sensitivities: Option<Vec<String>>) -> PyResult<RawResult> {
         let cancel = solve::Cancel::new();
         let spec = RunSpec { sets: Vec::new(), cycles, t_end, cancel: Some(cancel.clone()) };
         let flat = self.flat.clone();
         let outcome = crate::interrupt::run(py, &cancel, move || -> Result<_, AppError> {
-            let prepared = prepare(flat, &spec)?;
+            let prepared = prepare(flat.clone(), &spec)?;
             let warnings = self.shown_warnings(&prepared.warnings);
-            Ok((execute(prepared)?, warnings))
+            match sensitivities.filter(|s| !s.is_empty()) {
+                None => Ok((execute(prepared)?, None, warnings)),
+                Some(params) => {
+                    drop(prepared);
+                    let (run, sens) = pneumo_app::sensitivity::run_with_sensitivities(flat, &spec, &params)?;
+                    Ok((run, Some(sens), warnings))
+                }
+            }
         })?;
-        let (run, warnings) = outcome.py_err(py)?;
-        Ok(RawResult::new(run, warnings))
+        let (run, sens, warnings) = outcome.py_err(py)?;
+        Ok(RawResult::new(run, warnings).with_sensitivities(sens))
     }
 
     /// The linear model about the operating point `at` ("rest" or

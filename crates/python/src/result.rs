@@ -9,16 +9,35 @@ use pyo3::types::PyBytes;
 pub struct RawResult {
     run: Run,
     warnings: Vec<String>,
+    sensitivities: Option<solve::Sensitivities>,
 }
 
 impl RawResult {
     pub fn new(run: Run, warnings: Vec<String>) -> Self {
-        RawResult { run, warnings }
+        RawResult { run, warnings, sensitivities: None }
+    }
+
+    pub fn with_sensitivities(self, sensitivities: Option<solve::Sensitivities>) -> Self {
+        RawResult { sensitivities, ..self }
     }
 }
 
 #[pymethods]
 impl RawResult {
+    /// Parameters whose sensitivities the run integrated ("friction.k0").
+    #[getter]
+    fn sensitivity_params(&self) -> Vec<String> {
+        self.sensitivities.as_ref().map(|s| s.params.clone()).unwrap_or_default()
+    }
+
+    /// ∂(channel)/∂(param) on the time grid as little-endian f64 (NaN where
+    /// the channel is undefined), or None if either name is unknown.
+    fn sensitivity_data<'py>(&self, py: Python<'py>, channel: &str, param: &str) -> Option<Bound<'py, PyBytes>> {
+        let series = self.sensitivities.as_ref()?.series(channel, param)?;
+        let bytes: Vec<u8> = series.iter().flat_map(|v| v.unwrap_or(f64::NAN).to_le_bytes()).collect();
+        Some(PyBytes::new(py, &bytes))
+    }
+
     /// Recorded signal names ("head.p"), without the time.
     #[getter]
     fn columns(&self) -> Vec<String> {

@@ -21,12 +21,30 @@ pub enum RigError {
         reason: &'static str,
     },
     /// The step size fell below the smallest step the integrator accepts.
-    #[error("step size {h:e} s too small at t = {t} s (Newton iteration or error test keeps failing)")]
+    #[error("step size {h:e} s too small at t = {t} s (Newton iteration or error test keeps failing); state {state}")]
     StepSizeTooSmall {
         /// Simulation time [s].
         t: f64,
         /// The step size that was refused [s].
         h: f64,
+        /// The state where it stopped, with names and units.
+        state: String,
+    },
+    /// The integrator used up `RunSpec::max_steps` step attempts: its step
+    /// size collapsed (a discontinuity the error test cannot get past, a
+    /// chattering right-hand side) without reaching the minimum step.
+    #[error("integration stalled at t = {t} s: {attempts} step attempts (limit {limit}, run.max_steps), step size {h:e} s; state {state}")]
+    StepLimit {
+        /// Simulation time [s].
+        t: f64,
+        /// The step size of the last attempt [s].
+        h: f64,
+        /// Step attempts made (accepted, rejected and abandoned).
+        attempts: usize,
+        /// The configured limit.
+        limit: usize,
+        /// The state where it stopped, with names and units.
+        state: String,
     },
     /// A state left the physical domain (mass or temperature not positive)
     /// at an accepted point, i.e. not merely inside a Newton iteration.

@@ -32,8 +32,13 @@
 //! A one-way ISO 6358 restriction (C_ck, b_ck) that passes flow only from
 //! its inlet to its outlet, opening at the cracking pressure Δp_cr. Two laws:
 //! * **exact** (default): open iff p_in − p_out > Δp_cr, then the full
-//!   ISO 6358 flow. With Δp_cr = 0 the flow is continuous (it vanishes with
-//!   the pressure difference) but its slope is not;
+//!   ISO 6358 flow; shut below. With Δp_cr = 0 the flow is continuous (it
+//!   vanishes with the pressure difference) but its slope is not. With
+//!   Δp_cr > 0 it jumps at the cracking pressure, and at exactly
+//!   p_in − p_out = Δp_cr the ideal valve may take any opening between shut
+//!   and open (an ideal poppet without spring stiffness): where it feeds a
+//!   volume-less junction that neither opening balances, it floats there
+//!   (`model`, `Plant::fill_junction`);
 //! * **linear opening** over Δp_o: the conductance is scaled by
 //!   s = clamp((p_in − p_out − Δp_cr)/Δp_o, 0, 1), so the valve opens
 //!   gradually (a spring-loaded poppet with a finite stiffness).

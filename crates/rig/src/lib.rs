@@ -42,8 +42,10 @@
 //! * ISO 6358 subsonic law: [pure ellipse, index ½] or a subsonic index
 //!   m ≠ ½, and optionally a laminar end region of width w (ω replaced by
 //!   its chord to zero for r > 1 − w; ISO 6358-2:2013 uses w = 10⁻³).
-//! * Check valve: [exact, open iff p_in − p_out > cracking pressure] or a
-//!   linear opening over a pressure range.
+//! * Check valve: [exact, open iff p_in − p_out > cracking pressure; at
+//!   the cracking pressure any opening, so it floats there when neither
+//!   shut nor open balances the rod-line junction] or a linear opening
+//!   over a pressure range.
 //! * Limit switches: tolerance [10 µm], latency [0], dwell at either end [0].
 //! * Friction: breakaway ratio r [1]; Stribeck decay of the excess
 //!   (r − 1)F_c, exponential or Gaussian, with velocity v_s [none].

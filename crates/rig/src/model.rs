@@ -41,7 +41,10 @@
 //! balance q_valve(p_j) = q_scv(p_j), found by Brent's method on the
 //! interval between the two end pressures (both flows are monotone in p_j;
 //! the flow direction is the same through both and is known beforehand from
-//! the end pressures). Throttling is taken as isenthalpic and isothermal
+//! the end pressures). An exact check valve with a cracking pressure makes
+//! q_scv jump; where the balance falls into the jump, the valve floats at
+//! its cracking pressure and passes what the throttle does not
+//! (`Plant::fill_junction`). Throttling is taken as isenthalpic and isothermal
 //! (ideal gas): the junction passes on the upstream temperature and
 //! enthalpy.
 //!
@@ -283,6 +286,51 @@ impl Plant {
         }
     }
 
+    /// The junction while the rod line fills the rod chamber (s.p > r.p):
+    /// its pressure p_j and the flow into the rod chamber, given the flow
+    /// q₁(p_j) through the 5/2 valve from `s`.
+    ///
+    /// With the linear check-valve law (and the exact law at zero cracking
+    /// pressure) the speed-control valve's flow is continuous in p_j and
+    /// the balance q₁ = q_scv has one root between the end pressures.
+    /// The exact law with a cracking pressure Δp_cr jumps at
+    /// p_c = p_rod + Δp_cr from the throttle's flow to the throttle's plus
+    /// the whole check valve's, and the balance may have no root at all:
+    /// closed, the valve would let the junction rise above p_c; fully open,
+    /// it would pull it below. The ideal valve's law is then the one an
+    /// ideal spring-loaded poppet obeys — at Δp = Δp_cr any opening between
+    /// closed and open — and the poppet floats at p_j = p_c, passing what
+    /// the throttle does not (a maximal monotone law, Filippov's convention;
+    /// the flow is then continuous in the state). Handing that band to
+    /// Brent's method instead made it converge onto the jump and return
+    /// one side or the other at random, a right-hand side that chattered by
+    /// the check valve's whole flow: the integrator's step collapsed there
+    /// (issue 23: a varied truth draw with Δp_cr = 0.2 bar never finished).
+    fn fill_junction(&self, q1: &dyn Fn(f64) -> f64, s: &End, r: &End, xtol: f64) -> (f64, f64) {
+        let thr = |pj: f64| self.throttle.forward(&self.law, pj, s.t, r.p);
+        let p_c = r.p + self.cracking;
+        if self.check_law == CheckLaw::Exact && p_c < s.p {
+            let closed = q1(p_c) - thr(p_c);
+            if closed <= 0.0 {
+                // the check valve stays shut: the root lies at or below p_c
+                let pj = brent(|pj| q1(pj) - thr(pj), r.p, p_c, q1(r.p), closed, xtol);
+                return (thr(pj), pj);
+            }
+            let open = closed - self.check.forward(&self.law, p_c, s.t, r.p);
+            if open < 0.0 {
+                // floating at the cracking pressure
+                return (q1(p_c), p_c);
+            }
+            // fully open: the root lies at or above p_c
+            let q2 = |pj: f64| thr(pj) + self.check.forward(&self.law, pj, s.t, r.p);
+            let pj = brent(|pj| q1(pj) - q2(pj), p_c, s.p, open, -q2(s.p), xtol);
+            return (q2(pj), pj);
+        }
+        let q2 = |pj: f64| self.scv_in(pj, s.t, r.p);
+        let pj = brent(|pj| q1(pj) - q2(pj), r.p, s.p, q1(r.p), -q2(s.p), xtol);
+        (q2(pj), pj)
+    }
+
     /// The rod line between the 5/2 end `s` (supply node or exhaust) and the
     /// rod chamber `r`. Returns (ṁ into the rod chamber, ṁ leaving `s`
     /// towards the junction, enthalpy carried, junction pressure).
@@ -295,11 +343,8 @@ impl Plant {
         if s.p > r.p {
             // s → j (5/2 valve) → rod (speed-control valve), gas at s.t
             let q1 = |pj: f64| self.valve.forward(&self.law, s.p, s.t, pj);
-            let q2 = |pj: f64| self.scv_in(pj, s.t, r.p);
-            let res = |pj: f64| q1(pj) - q2(pj);
-            let (lo, hi) = (r.p, s.p);
-            let pj = brent(res, lo, hi, q1(lo), -q2(hi), xtol);
-            (q2(pj), q1(pj), s.h, pj)
+            let (q, pj) = self.fill_junction(&q1, s, r, xtol);
+            (q, q1(pj), s.h, pj)
         } else {
             // rod → j (throttle; the check valve is closed) → s (5/2 valve), gas at r.t
             let q1 = |pj: f64| self.throttle.forward(&self.law, r.p, r.t, pj);
@@ -480,6 +525,56 @@ mod tests {
         assert!(ev.p1 > ev.p_line);
         assert!(dy[I_M1] < 0.0);
         assert!(dy[I_T1] < 0.0);
+    }
+}
+
+#[cfg(test)]
+mod junction_tests {
+    use super::*;
+
+    /// The rod line filling the rod chamber through an exact check valve
+    /// with a cracking pressure: across the band where neither a shut nor
+    /// a fully open valve balances the junction, the valve floats at the
+    /// cracking pressure — the junction sits at p_rod + Δp_cr, what enters
+    /// the rod chamber is what leaves the supply, and the flow is
+    /// continuous in the rod pressure (it jumped by the check valve's whole
+    /// flow before, issue 23).
+    #[test]
+    fn an_exact_check_valve_floats_at_its_cracking_pressure() {
+        let cracking = 0.134e5;
+        let rig = Rig { check_cracking: cracking, ..Rig::paper_bar_lpm(4.0, 26.0) };
+        let plant = Plant::new(&rig, &ModelForm::default(), &Effects::default());
+        let supply = plant.supply;
+        let rod_end = |p: f64| End { p, t: 292.0, h: plant.gas.enthalpy(plant.gas.density(p, 292.0), 292.0) };
+        let mut floating = 0;
+        let mut last: Option<f64> = None;
+        let mut largest_jump: f64 = 0.0;
+        let mut largest_flow: f64 = 0.0;
+        let n = 20_000;
+        for k in 0..n {
+            // rod pressure from 3.5 bar up to just below the supply
+            let p2 = 3.5e5 + (supply.p - 3.5e5) * k as f64 / n as f64;
+            let (q_rod, q_from, _, pj) = plant.rod_line(&supply, &rod_end(p2));
+            assert!(
+                (q_rod - q_from).abs() <= 1e-6 * q_from.abs(),
+                "p_rod {p2} Pa: into the rod {q_rod} kg/s, out of the supply {q_from} kg/s"
+            );
+            assert!(pj >= p2 && pj <= supply.p, "p_rod {p2}: junction {pj}");
+            let throttle_only = plant.throttle.forward(&plant.law, pj, supply.t, p2);
+            if q_rod > throttle_only * (1.0 + 1e-9) && pj - p2 < cracking * (1.0 + 1e-9) {
+                // the check valve passes flow: the junction is at (not below) the cracking pressure
+                assert!((pj - p2 - cracking).abs() <= 1e-6 * cracking, "p_rod {p2}: junction {pj}, Δp {} Pa", pj - p2);
+                floating += 1;
+            }
+            if let Some(q) = last {
+                largest_jump = largest_jump.max((q_rod - q).abs());
+            }
+            largest_flow = largest_flow.max(q_rod);
+            last = Some(q_rod);
+        }
+        assert!(floating > 100, "the band was crossed: {floating} points floating");
+        // a grid step of 2.5 Pa moves a continuous flow by far less than 1 % of its range
+        assert!(largest_jump < 0.01 * largest_flow, "largest jump {largest_jump} kg/s of {largest_flow} kg/s");
     }
 }
 

@@ -331,11 +331,26 @@ pub struct RunSpec {
     pub max_step: f64,
     /// Stop with an error after this many discrete events.
     pub max_events: usize,
+    /// Stop with an error after this many step attempts of the integrator
+    /// (accepted, rejected and abandoned, over the whole run). The default,
+    /// 500 000, is about 170 times the ≈ 3 000 that three cycles of the
+    /// truth matrix take (rtol 10⁻⁷); a run of hundreds of cycles needs
+    /// more. It bounds a step size that collapses without reaching the
+    /// minimum step (which, at 10⁻¹⁴·t, would take hours).
+    pub max_steps: usize,
 }
 
 impl Default for RunSpec {
     fn default() -> Self {
-        RunSpec { cycles: Some(3), t_end: 600.0, sampling: Sampling::Every(1e-3), rtol: 1e-6, max_step: 0.05, max_events: 100_000 }
+        RunSpec {
+            cycles: Some(3),
+            t_end: 600.0,
+            sampling: Sampling::Every(1e-3),
+            rtol: 1e-6,
+            max_step: 0.05,
+            max_events: 100_000,
+            max_steps: 500_000,
+        }
     }
 }
 
@@ -352,6 +367,9 @@ impl RunSpec {
         }
         if !(self.rtol >= 1e-12 && self.rtol <= 1e-2) {
             return Err(RigError::invalid("run.rtol", self.rtol, "must lie in [1e-12, 1e-2]"));
+        }
+        if self.max_steps == 0 {
+            return Err(RigError::invalid("run.max_steps", 0.0, "must be at least 1"));
         }
         if !positive(self.max_step) {
             return Err(RigError::invalid("run.max_step", self.max_step, "must be positive"));

@@ -29,6 +29,11 @@
 //!   rtol·(|y_i| + floor_i).
 //! * Step size: h_new = h·clamp(0.9·err^(−1/4), 0.2, 4), no growth right
 //!   after a rejection; Newton failure: a fresh Jacobian first, then h/3.
+//!   Two limits end a run that cannot go on, each with an error naming the
+//!   time: h below 10⁻¹⁴·max(|t|, 1), and a budget of step attempts
+//!   (accepted, rejected and abandoned; set by the caller, `RunSpec::max_steps`
+//!   for the rig) for a step size that collapses without reaching that
+//!   minimum — which, at 10⁻¹⁴ of t, would otherwise take hours.
 //! * Newton: stopped when η‖ΔZ‖ ≤ 0.003 (weighted norm, η = θ/(1 − θ), θ
 //!   the contraction rate; Hairer & Wanner IV.8; on the first iteration
 //!   only if ‖ΔZ‖ ≤ 1 as well); failure after 12 iterations. When the
@@ -119,6 +124,10 @@ pub struct SolverStats {
 pub(crate) enum StepError {
     /// h fell below the minimum.
     TooSmall { t: f64, h: f64 },
+    /// The step attempts (accepted, rejected and abandoned) of this stepper
+    /// reached its limit ([`Sdirk::limit_attempts`]): the step size has
+    /// collapsed without reaching the minimum.
+    TooManySteps { t: f64, h: f64, attempts: usize },
     /// The state at the start of a step is outside the physical domain.
     NonPhysical { t: f64 },
 }
@@ -155,6 +164,8 @@ pub(crate) struct Sdirk {
     rtol: f64,
     floor: Vec<f64>,
     h_max: f64,
+    /// Most step attempts (accepted + rejected + Newton failures) allowed.
+    max_attempts: usize,
     /// Current accepted point.
     pub t: f64,
     pub y: Vec<f64>,
@@ -189,6 +200,7 @@ impl Sdirk {
             rtol,
             floor,
             h_max,
+            max_attempts: usize::MAX,
             t: 0.0,
             y: vec![0.0; nt],
             t_prev: 0.0,
@@ -223,6 +235,20 @@ impl Sdirk {
             },
             stats: SolverStats::default(),
         }
+    }
+
+    /// Limits the step attempts over the stepper's life (accepted, rejected
+    /// by the error test and abandoned by Newton), so that a step size that
+    /// collapses — at a discontinuity of f the error test cannot get past,
+    /// say — ends in an error instead of crawling on at femtosecond steps
+    /// for hours.
+    pub(crate) fn limit_attempts(&mut self, max_attempts: usize) {
+        self.max_attempts = max_attempts;
+    }
+
+    /// Step attempts so far (accepted, rejected and abandoned).
+    pub(crate) fn attempts(&self) -> usize {
+        self.stats.steps + self.stats.rejected + self.stats.newton_failures
     }
 
     /// Starts a new continuous segment at (t, y): forgets the history and
@@ -468,6 +494,9 @@ impl Sdirk {
             }
             if h < h_min {
                 return Err(StepError::TooSmall { t: self.t, h });
+            }
+            if self.attempts() >= self.max_attempts {
+                return Err(StepError::TooManySteps { t: self.t, h, attempts: self.attempts() });
             }
             if self.need_jac || !self.have_jac {
                 self.compute_jacobian(sys)?;

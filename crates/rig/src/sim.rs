@@ -229,10 +229,42 @@ impl SampleClock {
     }
 }
 
-fn step_error(e: StepError) -> RigError {
-    match e {
-        StepError::TooSmall { t, h } => RigError::StepSizeTooSmall { t, h },
-        StepError::NonPhysical { t } => RigError::NonPhysical { t, what: "mass, temperature or volume not positive".into() },
+/// The state at an integration failure, for the error message: chamber
+/// pressures and temperatures, position, velocity and the discrete mode.
+fn describe_state(plant: &Plant, mode: &Mode, y: &[f64]) -> String {
+    let (p1, p2) = plant.pressures(y);
+    let mut text = format!(
+        "p_head {:.5} bar, T_head {:.2} K, p_rod {:.5} bar, T_rod {:.2} K, x {:.4} mm, v {:.5} m/s, valve {:?}, piston {}",
+        p1 / 1e5,
+        y[crate::model::I_T1],
+        p2 / 1e5,
+        y[crate::model::I_T2],
+        y[I_X] * 1e3,
+        y[I_V],
+        mode.valve,
+        match mode.mech {
+            Mech::Stuck => "held".to_string(),
+            Mech::Slide(d) => format!("sliding {}", if d > 0.0 { "out" } else { "in" }),
+        }
+    );
+    if let Some((_, volume, _)) = plant.line {
+        text += &format!(", supply line {:.5} bar", plant.gas.pressure(y[crate::model::I_ML] / volume, y[crate::model::I_TL]) / 1e5);
+    }
+    text
+}
+
+impl Driver<'_> {
+    /// An integrator failure as a rig error naming the time and the state
+    /// (the stepper's current point).
+    fn step_error(&self, e: StepError, y: &[f64], limit: usize) -> RigError {
+        let state = describe_state(self.plant, &self.mode, y);
+        match e {
+            StepError::TooSmall { t, h } => RigError::StepSizeTooSmall { t, h, state },
+            StepError::TooManySteps { t, h, attempts } => RigError::StepLimit { t, h, attempts, limit, state },
+            StepError::NonPhysical { t } => {
+                RigError::NonPhysical { t, what: format!("mass, temperature or volume not positive; state {state}") }
+            }
+        }
     }
 }
 
@@ -611,6 +643,7 @@ pub fn simulate(rig: &Rig, form: &ModelForm, effects: &Effects, run: &RunSpec) -
     let y0 = y.clone();
     drv.mode.mech = drv.settle(&y);
     let mut st = Sdirk::new(plant.n_dyn, N_QUAD, run.rtol, plant.error_floors(), run.max_step);
+    st.limit_attempts(run.max_steps);
     let mut t = 0.0;
     // samples before t = 0 (a logger started early) show the rest state
     while let Some(ts) = drv.samples.peek() {
@@ -625,14 +658,14 @@ pub fn simulate(rig: &Rig, form: &ModelForm, effects: &Effects, run: &RunSpec) -
     drv.apply_due_valves(t)?;
     {
         let mut sys = drv.sys();
-        st.restart(&mut sys, t, &y).map_err(step_error)?;
+        st.restart(&mut sys, t, &y).map_err(|e| drv.step_error(e, &y, run.max_steps))?;
     }
     drv.emit_upto(&st, t)?;
     while !drv.done && t < run.t_end {
         let t_limit = drv.pending.first().map_or(run.t_end, |(tp, _)| tp.min(run.t_end));
         {
             let mut sys = drv.sys();
-            st.advance(&mut sys, t_limit).map_err(step_error)?;
+            st.advance(&mut sys, t_limit).map_err(|e| drv.step_error(e, &st.y, run.max_steps))?;
         }
         if drv.mode.mech == Mech::Stuck {
             // a held piston does not move, not even by rounding
@@ -649,7 +682,7 @@ pub fn simulate(rig: &Rig, form: &ModelForm, effects: &Effects, run: &RunSpec) -
                 drv.apply_due_valves(t)?;
                 y = ye;
                 let mut sys = drv.sys();
-                st.restart(&mut sys, t, &y).map_err(step_error)?;
+                st.restart(&mut sys, t, &y).map_err(|e| drv.step_error(e, &y, run.max_steps))?;
             }
             None => {
                 t = st.t;
@@ -667,7 +700,7 @@ pub fn simulate(rig: &Rig, form: &ModelForm, effects: &Effects, run: &RunSpec) -
                         }
                     }
                     let mut sys = drv.sys();
-                    st.restart(&mut sys, t, &y).map_err(step_error)?;
+                    st.restart(&mut sys, t, &y).map_err(|e| drv.step_error(e, &y, run.max_steps))?;
                 }
             }
         }

@@ -223,7 +223,10 @@ pub fn run_vessels(s: &VesselSystem, t_end: f64, dt: f64, rtol: f64) -> Result<V
     let mut sys = Sys { s };
     let mut st = Sdirk::new(2 * n, 3, rtol, floor, f64::INFINITY);
     let err = |e: StepError| match e {
-        StepError::TooSmall { t, h } => RigError::StepSizeTooSmall { t, h },
+        StepError::TooSmall { t, h } => RigError::StepSizeTooSmall { t, h, state: "not recorded (vessel run)".into() },
+        StepError::TooManySteps { t, h, attempts } => {
+            RigError::StepLimit { t, h, attempts, limit: usize::MAX, state: "not recorded (vessel run)".into() }
+        }
         StepError::NonPhysical { t } => RigError::NonPhysical { t, what: "vessel mass or temperature".into() },
     };
     st.restart(&mut sys, 0.0, &y).map_err(err)?;

@@ -15,6 +15,7 @@ use crate::exact::Exact;
 use crate::jacobian::{Structure, Workspace};
 use crate::mechanics::{self, Mode};
 use crate::model::{Model, ModelError, N_QUADRATURE};
+use crate::sensitivity::Tracker;
 use blocks::block::{CycleRecord, EventKind, MechState};
 use ode::{Advance, Dense, Integrator, IntegratorError, OdeSystem, Options, RhsError, RootDirection, Rosenbrock};
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -346,6 +347,10 @@ pub enum SolveError {
     Rest(#[from] crate::rest::RestError),
     #[error("cancelled at t = {} s", num(*t))]
     Cancelled { t: f64 },
+    /// A parameter sensitivity does not exist or could not be formed
+    /// (see [`crate::sensitivity`]).
+    #[error("sensitivities: {0}")]
+    Sensitivity(String),
 }
 
 /// The model seen by the integrator.
@@ -355,6 +360,8 @@ pub(crate) struct System<'a> {
     /// How the Jacobian is formed.
     pub(crate) jacobian: &'a mut Jacobian,
     pub(crate) cancel: Option<&'a Cancel>,
+    /// Parameter sensitivities integrated beside the state, if asked.
+    pub(crate) sens: Option<&'a mut Tracker>,
 }
 
 impl System<'_> {
@@ -416,6 +423,12 @@ impl OdeSystem for System<'_> {
     fn root_directions(&self, out: &mut [RootDirection]) {
         // the convention of every root of the model (see `model.rs`)
         out.fill(RootDirection::Rising);
+    }
+    fn sensitivity_rhs(&mut self, k: usize, t: f64, y: &[f64], f: &[f64], s: &[f64], out: &mut [f64]) -> Result<(), RhsError> {
+        match self.sens.as_deref_mut() {
+            Some(tracker) => tracker.rhs(k, t, y, f, s, out),
+            None => Err(RhsError("no sensitivities were asked for".into())),
+        }
     }
     fn jacobian_sparsity(&self) -> Option<ode::Sparsity> {
         match &*self.jacobian {
@@ -520,17 +533,27 @@ pub struct Checkpoint<'a> {
 
 /// Run the model from its initial state.
 pub fn simulate(model: &mut Model, opts: &SimOptions) -> Result<SimResult, SolveError> {
-    run(model, opts, None)
+    run(model, opts, None, None)
+}
+
+/// [`simulate`] with parameter sensitivities (see [`crate::sensitivity`]).
+pub(crate) fn run_tracked(model: &mut Model, opts: &SimOptions, tracker: &mut Tracker) -> Result<SimResult, SolveError> {
+    run(model, opts, None, Some(tracker))
 }
 
 /// [`simulate`], calling `observer` at every accepted integrator step and every
 /// event instant (for tests of the event logic). Observing does not change the
 /// run: the extra evaluations leave no trace in the model.
 pub fn simulate_observed(model: &mut Model, opts: &SimOptions, observer: &mut dyn FnMut(&Checkpoint)) -> Result<SimResult, SolveError> {
-    run(model, opts, Some(observer))
+    run(model, opts, Some(observer), None)
 }
 
-fn run(model: &mut Model, opts: &SimOptions, mut observer: Option<&mut dyn FnMut(&Checkpoint)>) -> Result<SimResult, SolveError> {
+fn run(
+    model: &mut Model,
+    opts: &SimOptions,
+    mut observer: Option<&mut dyn FnMut(&Checkpoint)>,
+    mut sens: Option<&mut Tracker>,
+) -> Result<SimResult, SolveError> {
     if !(opts.t_end > 0.0 && opts.t_end.is_finite()) {
         return Err(SolveError::Settings(format!("end time must be > 0 s, got {}", num(opts.t_end))));
     }
@@ -584,6 +607,12 @@ fn run(model: &mut Model, opts: &SimOptions, mut observer: Option<&mut dyn FnMut
     model.eval(t, &y, None, None)?;
     let initial = model.stored(t, &y);
     record(model, t, &y, &mut result)?;
+    let n_sens = sens.as_ref().map_or(0, |s| s.n_params());
+    if let Some(tracker) = sens.as_deref_mut() {
+        let columns = tracker.start(model, &y, opts)?;
+        tracker.record(t, &y, &result.rows[result.rows.len() - 1], &columns)?;
+        integrator.set_sensitivities(&columns);
+    }
     snapshots.push((t, y[quad.clone()].to_vec()));
     if let Some(obs) = observer.as_mut() {
         checkpoint(model, t, &y, CheckpointKind::Event, &mut roots, &mut **obs)?;
@@ -599,19 +628,29 @@ fn run(model: &mut Model, opts: &SimOptions, mut observer: Option<&mut dyn FnMut
         }
         let t_time_event = model.circuit.instances.iter().filter_map(|i| i.block.next_time_event(t)).fold(f64::INFINITY, f64::min);
         let t_stop = opts.t_end.min(t_time_event);
-        let mut samples: Vec<(f64, Vec<f64>)> = Vec::new();
+        let mut samples: Vec<(f64, Vec<f64>, Vec<Vec<f64>>)> = Vec::new();
         let observing = observer.is_some();
         step_ends.clear();
         let advance = {
-            let mut sys = System { model, error: None, jacobian: &mut jacobian, cancel: opts.cancel.as_ref() };
+            let mut sys = System { model, error: None, jacobian: &mut jacobian, cancel: opts.cancel.as_ref(), sens: sens.as_deref_mut() };
             let interval = opts.sample_interval;
             let record_steps = opts.record_steps && interval <= 0.0;
+            // the sensitivity columns at a sample time
+            let columns_at = |d: &dyn Dense, ts: f64| -> Vec<Vec<f64>> {
+                (0..n_sens)
+                    .map(|k| {
+                        let mut s = vec![0.0; n];
+                        d.eval_sensitivity(k, ts, &mut s);
+                        s
+                    })
+                    .collect()
+            };
             let mut dense_observer = |d: &dyn Dense| {
                 if observing || record_steps {
                     let mut ys = vec![0.0; n];
                     d.eval(d.t_end(), &mut ys);
                     if record_steps {
-                        samples.push((d.t_end(), ys.clone()));
+                        samples.push((d.t_end(), ys.clone(), columns_at(d, d.t_end())));
                     }
                     if observing {
                         step_ends.push((d.t_end(), ys));
@@ -622,8 +661,9 @@ fn run(model: &mut Model, opts: &SimOptions, mut observer: Option<&mut dyn FnMut
                 }
                 while next_sample <= d.t_end() + 1e-15 {
                     let mut ys = vec![0.0; n];
-                    d.eval(next_sample.min(d.t_end()), &mut ys);
-                    samples.push((next_sample, ys));
+                    let ts = next_sample.min(d.t_end());
+                    d.eval(ts, &mut ys);
+                    samples.push((next_sample, ys, columns_at(d, ts)));
                     next_sample += interval;
                     // avoid drift: snap to the grid
                     next_sample = (next_sample / interval).round() * interval;
@@ -645,9 +685,12 @@ fn run(model: &mut Model, opts: &SimOptions, mut observer: Option<&mut dyn FnMut
                 checkpoint(model, *ts, ys, CheckpointKind::Step, &mut roots, &mut **obs)?;
             }
         }
-        for (ts, ys) in samples {
+        for (ts, ys, columns) in samples {
             if ts < t - 1e-15 || ts <= t {
                 record(model, ts, &ys, &mut result)?;
+                if let Some(tracker) = sens.as_deref_mut() {
+                    tracker.record(ts, &ys, &result.rows[result.rows.len() - 1], &columns)?;
+                }
             }
         }
         let crossings = match advance {
@@ -666,9 +709,22 @@ fn run(model: &mut Model, opts: &SimOptions, mut observer: Option<&mut dyn FnMut
                 if n_events > opts.max_events {
                     return Err(SolveError::TooManyEvents { t, limit: opts.max_events });
                 }
+                let before = match sens.as_deref_mut() {
+                    Some(tracker) => {
+                        let columns = integrator_columns(&integrator);
+                        tracker.before_event(model, t, &y, &crossings, &columns)?;
+                        Some((y.clone(), columns))
+                    }
+                    None => None,
+                };
                 resolve_events(model, t, &mut y, &crossings, &due, &mut result)?;
                 integrator.reset();
                 record(model, t, &y, &mut result)?;
+                if let (Some(tracker), Some((y_before, columns))) = (sens.as_deref_mut(), before) {
+                    let columns = tracker.after_event(model, t, &y_before, &y, &crossings, &due, &columns)?;
+                    tracker.record(t, &y, &result.rows[result.rows.len() - 1], &columns)?;
+                    integrator.set_sensitivities(&columns);
+                }
                 snapshots.push((t, y[quad.clone()].to_vec()));
                 if let Some(obs) = observer.as_mut() {
                     checkpoint(model, t, &y, CheckpointKind::Event, &mut roots, &mut **obs)?;
@@ -686,6 +742,12 @@ fn run(model: &mut Model, opts: &SimOptions, mut observer: Option<&mut dyn FnMut
     }
     if result.times.last() != Some(&t) {
         record(model, t, &y, &mut result)?;
+        if let Some(tracker) = sens.as_deref_mut() {
+            tracker.record(t, &y, &result.rows[result.rows.len() - 1], &integrator_columns(&integrator))?;
+        }
+    }
+    if let Some(tracker) = sens {
+        tracker.set_final(integrator_columns(&integrator));
     }
     model.eval(t, &y, None, None)?;
     let last = model.stored(t, &y);
@@ -721,6 +783,11 @@ fn run(model: &mut Model, opts: &SimOptions, mut observer: Option<&mut dyn FnMut
         result.finite_difference_blocks = e.fallback_blocks(model);
     }
     Ok(result)
+}
+
+/// The integrator's sensitivity columns at its current point.
+fn integrator_columns(integrator: &Rosenbrock) -> Vec<Vec<f64>> {
+    (0..integrator.n_sensitivities()).map(|k| integrator.sensitivity(k).to_vec()).collect()
 }
 
 /// The integrator of a run: tolerances checked, absolute tolerances scaled

@@ -133,7 +133,7 @@ impl Stepper {
                 self.model.circuit.instances.iter().filter_map(|i| i.block.next_time_event(self.t)).fold(f64::INFINITY, f64::min);
             let t_stop = t_target.min(t_time_event);
             let advance = {
-                let mut sys = System { model: &mut self.model, error: None, jacobian: &mut self.jacobian, cancel: None };
+                let mut sys = System { model: &mut self.model, error: None, jacobian: &mut self.jacobian, cancel: None, sens: None };
                 match self.integrator.advance(&mut sys, &mut self.t, &mut self.y, t_stop, &mut |_: &dyn Dense| {}) {
                     Ok(a) => a,
                     Err(e) => return Err(simulate::advance_error(e, sys.error.take(), sys.model, false, self.t)),

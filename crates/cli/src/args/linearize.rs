@@ -18,6 +18,9 @@ pub struct LinearizeArgs {
     /// Write A, B, C, D, modes, Bode data (CSV) and linear.json into this directory.
     #[arg(long, value_name = "DIR")]
     pub out: Option<PathBuf>,
+    /// Draw a Bode picture (magnitude and phase of every output/input pair): FILE.svg or FILE.png.
+    #[arg(long, value_name = "FILE.svg|FILE.png")]
+    pub bode: Option<PathBuf>,
     /// Print the result as JSON.
     #[arg(long)]
     pub json: bool,
@@ -29,7 +32,7 @@ pub struct LinearizeArgs {
 }
 
 pub fn run(a: LinearizeArgs) -> Result<(), AppError> {
-    let o = LinearizeOptions { model: a.model, sets: a.sets, at: a.at, out: a.out, keep_all_states: a.all_states };
+    let o = LinearizeOptions { model: a.model, sets: a.sets, at: a.at, out: a.out, keep_all_states: a.all_states, bode: a.bode };
     let r = linearize(&o)?;
     if a.json {
         println!("{}", serde_json::to_string_pretty(&r.json).unwrap_or_default());
