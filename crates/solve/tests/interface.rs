@@ -152,8 +152,10 @@ fn the_position_control_plant_follows_its_valve_input_and_load() {
     let flat = common::flat_from_model("position_control.json", &[]);
     let run = |u: f64, load: f64| {
         let mut m = model(&flat, Drive::External);
-        m.set_input(0, load).unwrap(); // inputs in name order: F_load, u
-        m.set_input(1, u).unwrap();
+        // inputs in the netlist's order (u, F_load), found by name
+        let index = |name: &str| flat.inputs.keys().position(|k| k == name).expect(name);
+        m.set_input(index("F_load"), load).unwrap();
+        m.set_input(index("u"), u).unwrap();
         let mut opts = options(&flat, Some(0.2));
         opts.sample_interval = 0.01;
         last(&solve::simulate(&mut m, &opts).unwrap(), "cyl.piston.x")
