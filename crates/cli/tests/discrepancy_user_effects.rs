@@ -27,13 +27,6 @@ use truth::{Case, Variation};
 
 const L_MIN_BAR: f64 = 1e-3 / 60.0 / 1e5;
 
-const SEAL_ORIFICE: &str = r#"{
-    "name": "seal_orifice", "description": "ISO 6358 orifice across the piston seal",
-    "components": [ { "id": "seal", "type": "conductance", "params": { "b": 0.5 } } ],
-    "connections": [ ["head.port", "seal.a"], ["seal.b", "rod.port"] ],
-    "free": { "seal.C": { "null": "0 L/min/bar", "start": "0.2 L/min/bar", "bounds": ["0 L/min/bar", "5 L/min/bar"],
-                          "scan": ["0.03 L/min/bar", "0.1 L/min/bar", "0.3 L/min/bar", "1 L/min/bar", "3 L/min/bar"] } } }"#;
-
 #[test]
 fn a_declared_seal_leak_is_named_and_sized_from_the_command_line() {
     let seed = 4;
@@ -47,7 +40,7 @@ fn a_declared_seal_leak_is_named_and_sized_from_the_command_line() {
     }
     let mut manifest: Value = serde_json::from_str(&truth::manifest_text(&records, &t.description)).expect("the manifest is JSON");
     manifest["effects"] = serde_json::json!(["dead_volume", "valve_delay"]);
-    manifest["user_effects"] = Value::Array(vec![serde_json::from_str(SEAL_ORIFICE).expect("the declaration is JSON")]);
+    manifest["user_effects"] = Value::Array(vec![serde_json::from_str(truth::SEAL_ORIFICE).expect("the declaration is JSON")]);
     let manifest = dir.write("E.json", &serde_json::to_string_pretty(&manifest).expect("JSON"));
     let model = repo().join("models/meter_out.json");
     let out = Command::new(env!("CARGO_BIN_EXE_pneumo"))

@@ -19,13 +19,6 @@ use identify::effects::user::{UserEffect, UserEffectSpec};
 use identify::report::Outcome;
 use truth::{Case, Variation};
 
-const SEAL_ORIFICE: &str = r#"{
-    "name": "seal_orifice", "description": "ISO 6358 orifice across the piston seal",
-    "components": [ { "id": "seal", "type": "conductance", "params": { "b": 0.5 } } ],
-    "connections": [ ["head.port", "seal.a"], ["seal.b", "rod.port"] ],
-    "free": { "seal.C": { "null": "0 L/min/bar", "start": "0.2 L/min/bar", "bounds": ["0 L/min/bar", "5 L/min/bar"],
-                          "scan": ["0.03 L/min/bar", "0.1 L/min/bar", "0.3 L/min/bar", "1 L/min/bar", "3 L/min/bar"] } } }"#;
-
 /// The workflow on one case with the declared effect; `builtins` = the
 /// built-in effects tried beside it.
 fn run(case: Case, seed: u64, builtins: Vec<String>) -> (truth::Truth, Outcome) {
@@ -33,7 +26,7 @@ fn run(case: Case, seed: u64, builtins: Vec<String>) -> (truth::Truth, Outcome) 
     let records = truth::records(&t, seed, 2).expect("the rig simulates");
     let experiments = truth::experiments(&records).expect("the records are experiments");
     let model = truth::model(case);
-    let spec: UserEffectSpec = serde_json::from_str(SEAL_ORIFICE).expect("the declaration parses");
+    let spec: UserEffectSpec = serde_json::from_str(truth::SEAL_ORIFICE).expect("the declaration parses");
     let effect = UserEffect::declare(&spec, &model).expect("the declaration is valid");
     let signals: Vec<String> = experiments[0].channels.iter().map(|c| c.signal.clone()).collect();
     effect.check_nested(&model, 1.0, &signals).expect("the declared effect nests");

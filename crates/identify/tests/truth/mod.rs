@@ -355,3 +355,13 @@ pub fn manifest_text(records: &[Record], description: &str) -> String {
         .collect();
     format!("{{\n  \"description\": \"{}\",\n  \"experiments\": [\n{}\n  ]\n}}\n", description.replace('"', "'"), rows.join(",\n"))
 }
+
+/// A declared effect (issue 23 item 6) for the leak case: an ISO 6358
+/// orifice across the piston seal, in the manifest's `user_effects` syntax.
+/// Shared by identify's and the command line's user-effect tests.
+pub const SEAL_ORIFICE: &str = r#"{
+    "name": "seal_orifice", "description": "ISO 6358 orifice across the piston seal",
+    "components": [ { "id": "seal", "type": "conductance", "params": { "b": 0.5 } } ],
+    "connections": [ ["head.port", "seal.a"], ["seal.b", "rod.port"] ],
+    "free": { "seal.C": { "null": "0 L/min/bar", "start": "0.2 L/min/bar", "bounds": ["0 L/min/bar", "5 L/min/bar"],
+                          "scan": ["0.03 L/min/bar", "0.1 L/min/bar", "0.3 L/min/bar", "1 L/min/bar", "3 L/min/bar"] } } }"#;
