@@ -101,8 +101,13 @@ fn virial_errors(gas: &str, t: (f64, f64), p: (f64, f64)) -> ([f64; 4], usize) {
     (e, n)
 }
 
+/// A number of the page with the word it is written as.
+type Word = (f64, String);
+/// A range of the page: lower and upper end.
+type Range = (f64, f64);
+
 /// A table row `| gas | 250–400 K, 1–10 bar | … |`: gas, T range [K], p range [Pa], numbers.
-fn accuracy_row(cells: &[&str]) -> (String, (f64, f64), (f64, f64), Vec<(f64, String)>) {
+fn accuracy_row(cells: &[&str]) -> (String, Range, Range, Vec<Word>) {
     let range: Vec<f64> = numbers(cells[1]).into_iter().map(|(x, _)| x).collect();
     assert_eq!(range.len(), 4, "range {:?}", cells[1]);
     let values: Vec<(f64, String)> = cells[2..].iter().flat_map(|c| numbers(c)).collect();
