@@ -50,7 +50,7 @@ impl Effect for ValveDelay {
         Topology::of(flat).command.is_some()
     }
     fn least_size(&self, resolution: &Resolution) -> Vec<LeastSize> {
-        if !(resolution.switch_latency > 0.0) {
+        if resolution.switch_latency.is_nan() || resolution.switch_latency <= 0.0 {
             return Vec::new();
         }
         vec![LeastSize {
