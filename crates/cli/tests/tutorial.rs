@@ -87,6 +87,7 @@ const CHECKED_PAGES: &[(&str, usize)] = &[
     ("docs/performance.md", 2),
     ("docs/report.md", 1),
     ("docs/position_control_tuning.md", 2),
+    ("docs/circuits.md", 4),
 ];
 
 /// Run a page's blocks — every ```sh block when `every_sh` (the tutorial),
