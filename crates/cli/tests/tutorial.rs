@@ -13,6 +13,7 @@
 
 mod common;
 
+use common::numbers::mismatch;
 use common::{repo, Scratch};
 use std::path::Path;
 use std::process::{Command, Stdio};
@@ -44,87 +45,6 @@ fn blocks(page: &str) -> Vec<Block> {
         }
     }
     out
-}
-
-/// A line's pieces: text runs and numbers.
-#[derive(Debug, PartialEq)]
-enum Piece {
-    Text(String),
-    Number(f64, String),
-}
-
-fn pieces(line: &str) -> Vec<Piece> {
-    let mut out = Vec::new();
-    let mut text = String::new();
-    let chars: Vec<char> = line.chars().collect();
-    let mut i = 0;
-    while i < chars.len() {
-        let starts_number =
-            chars[i].is_ascii_digit() && (i == 0 || !(chars[i - 1].is_alphanumeric() || chars[i - 1] == '_' || chars[i - 1] == '.'));
-        if starts_number {
-            let mut j = i;
-            while j < chars.len()
-                && (chars[j].is_ascii_digit() || chars[j] == '.' || chars[j] == 'e' || (chars[j] == '-' && chars[j - 1] == 'e'))
-            {
-                j += 1;
-            }
-            let word: String = chars[i..j].iter().collect();
-            let word = word.trim_end_matches('.').to_string();
-            if let Ok(x) = word.parse::<f64>() {
-                if text.ends_with('-') {
-                    text.pop();
-                    out.push(Piece::Text(std::mem::take(&mut text)));
-                    out.push(Piece::Number(-x, format!("-{word}")));
-                } else {
-                    out.push(Piece::Text(std::mem::take(&mut text)));
-                    out.push(Piece::Number(x, word.clone()));
-                }
-                i += word.chars().count();
-                continue;
-            }
-        }
-        text.push(chars[i]);
-        i += 1;
-    }
-    out.push(Piece::Text(text));
-    out.retain(|p| !matches!(p, Piece::Text(t) if t.is_empty()));
-    out
-}
-
-/// Half a unit of the last digit a number is written with.
-fn half_ulp(word: &str) -> f64 {
-    let mantissa = word.split(['e', 'E']).next().unwrap_or(word);
-    let exponent: i32 = word.split(['e', 'E']).nth(1).and_then(|e| e.parse().ok()).unwrap_or(0);
-    let decimals = mantissa.split('.').nth(1).map_or(0, str::len) as i32;
-    0.5 * 10f64.powi(exponent - decimals)
-}
-
-/// Why `actual` does not read as `expected`, if it does not.
-fn mismatch(expected: &str, actual: &str) -> Option<String> {
-    let (expected, actual) = match expected.strip_suffix('…') {
-        Some(prefix) => {
-            let n = prefix.chars().count();
-            (prefix.to_string(), actual.chars().take(n).collect::<String>())
-        }
-        None => (expected.to_string(), actual.to_string()),
-    };
-    let (e, a) = (pieces(&expected), pieces(&actual));
-    if e.len() != a.len() {
-        return Some(format!("shape differs: {e:?} vs {a:?}"));
-    }
-    for (e, a) in e.iter().zip(&a) {
-        match (e, a) {
-            (Piece::Text(x), Piece::Text(y)) if x == y => {}
-            (Piece::Number(x, word), Piece::Number(y, _)) => {
-                let allowed = half_ulp(word) + 0.005 * x.abs();
-                if (x - y).abs() > allowed {
-                    return Some(format!("{word} on the page, {y} from the run (allowed ±{allowed:e})"));
-                }
-            }
-            _ => return Some(format!("{e:?} vs {a:?}")),
-        }
-    }
-    None
 }
 
 /// Run one block as a shell script in `dir`; its standard output.
@@ -160,7 +80,14 @@ fn run_block(page: &str, dir: &Path, script: &str) -> String {
 /// Pages besides the tutorial whose ```sh checked blocks are run, with the
 /// least number of outputs each must show (so a page cannot lose its checks
 /// silently).
-const CHECKED_PAGES: &[(&str, usize)] = &[("docs/validation.md", 1), ("docs/sweeps.md", 1), ("docs/conductance.md", 1)];
+const CHECKED_PAGES: &[(&str, usize)] = &[
+    ("docs/validation.md", 1),
+    ("docs/sweeps.md", 1),
+    ("docs/conductance.md", 1),
+    ("docs/performance.md", 2),
+    ("docs/report.md", 1),
+    ("docs/position_control_tuning.md", 2),
+];
 
 /// Run a page's blocks — every ```sh block when `every_sh` (the tutorial),
 /// else the ```sh checked ones — the slow ones too when `slow`, and compare

@@ -22,6 +22,8 @@
 //! come from tests/data/make_gas_fixture.py (CoolProp reference data); the
 //! fit method and the accuracy reached are in docs/gas.md.
 
+#[cfg(test)]
+mod doc_numbers;
 mod ideal;
 mod semi_perfect;
 mod virial;

@@ -69,7 +69,7 @@
 //! excludes the null by a margin), and no parameter with a null sits at a
 //! bound other than that null.
 
-use crate::effects::{scan_grid, Effect, Scale};
+use crate::effects::{scan_grid, Effect, Resolution, Scale};
 use crate::fit::{block_stats, chi2, fit_once, fit_short_stages, screen_horizon, Fit, FitOptions, ScreenStop, Staged};
 use crate::heldout::HeldOut;
 use crate::options::Options;
@@ -251,7 +251,8 @@ pub struct Candidate {
     /// Why it was not accepted (empty when it passed every test).
     pub reasons: Vec<String>,
     /// The tests it failed, by name: `fit`, `screen`, `parameter`, `bound`,
-    /// `information_criterion`, `heldout_gain`, `model_form_floor`, `sham`.
+    /// `information_criterion`, `heldout_gain`, `model_form_floor`,
+    /// `practical_size`, `remainder`.
     pub failed: Vec<String>,
     /// Remarks that do not reject it (a shape parameter at a bound).
     pub notes: Vec<String>,
@@ -692,9 +693,37 @@ pub fn finish<'a>(current: &Structure<'a>, prep: Prepared<'a>, opts: &Options) -
             }
         }
     }
+    // the practical-size test (test 5 of crate::selection)
+    if let Some(effect) = effects.last() {
+        if let Some(why) = below_least_size(*effect, &f.values[first..], &opts.resolution()) {
+            cand.fail("practical_size", why);
+        }
+    }
     let short_ref = short_reference(&problem, short.short.as_ref(), &f.values, opts);
     let s = Structure { effects, params, fit: f, heldout: None, short: short_ref };
     (Some(s), cand)
+}
+
+/// The practical-size test (test 5 of [`crate::selection`]): why an effect
+/// fitted at `values` (SI, in the order of [`Effect::params`]) is below
+/// every one of its least sizes ([`Effect::least_size`]); `None` when it
+/// reaches one of them or declares none.
+pub fn below_least_size(effect: &dyn Effect, values: &[f64], resolution: &Resolution) -> Option<String> {
+    let sizes = effect.least_size(resolution);
+    let params = effect.params();
+    let mut why = Vec::new();
+    for s in &sizes {
+        let (p, v) = (params.get(s.param)?, *values.get(s.param)?);
+        if (v - p.null.unwrap_or(0.0)).abs() >= s.size {
+            return None;
+        }
+        let show = |x: f64| match units::to_unit(x, &p.unit) {
+            Ok(u) => format!("{} {}", crate::params::significant(u, 3), p.unit),
+            Err(_) => format!("{} (SI)", crate::params::significant(x, 3)),
+        };
+        why.push(format!("{} {} is below the {} {}", p.name, show(v), show(s.size), s.why));
+    }
+    (!why.is_empty()).then(|| format!("practical size: {}; not named", why.join(", and ")))
 }
 
 #[cfg(test)]
@@ -702,6 +731,25 @@ mod tests {
     use super::*;
     use crate::effects::EffectParam;
     use crate::params::effect_params;
+
+    #[test]
+    fn a_valve_delay_below_the_switching_resolution_is_not_of_practical_size() {
+        let delay = crate::effects::ValveDelay;
+        let resolution = Options::default().resolution();
+        assert_eq!(resolution.switch_latency, 1e-3);
+        // varied null seed 6: a 0.134 ms "delay" that passed every statistical
+        // test, the rig's limit-switch latency (0 … 0.2 ms) absorbed
+        let why = below_least_size(&delay, &[0.134e-3], &resolution).expect("below the least size");
+        assert!(why.contains("T 0.134 ms is below the 1 ms timing resolution of the switching instant"), "{why}");
+        // a solenoid valve's delay (5–30 ms) and one just above the resolution are of practical size
+        assert_eq!(below_least_size(&delay, &[15e-3], &resolution), None);
+        assert_eq!(below_least_size(&delay, &[1.01e-3], &resolution), None);
+        // a rig whose switching is timed to 0.1 ms resolves a 0.134 ms delay; 0 s switches the rule off
+        assert_eq!(below_least_size(&delay, &[0.134e-3], &Resolution { switch_latency: 0.1e-3 }), None);
+        assert_eq!(below_least_size(&delay, &[0.134e-3], &Resolution { switch_latency: 0.0 }), None);
+        // effects without a least size are never held back by it
+        assert_eq!(below_least_size(&crate::effects::DeadVolume, &[1e-9, 0.0], &resolution), None);
+    }
 
     #[test]
     fn an_estimate_at_a_bound_gets_a_one_sided_interval_inside_the_bounds() {

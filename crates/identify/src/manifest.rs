@@ -14,7 +14,7 @@
 //!   "effects": ["piston_seal_leak", "valve_delay"],
 //!   "max_effects": 2,
 //!   "fit_interval": "4 ms",
-//!   "nuisance": { "offset": true, "gain": true, "skew": "1 ms" },
+//!   "nuisance": { "offset": true, "gain": true, "skew": "1 ms", "switch_latency": "1 ms" },
 //!   "sensors": { "tank.T": { "accuracy": "1.5 K" },
 //!                "head.p": { "accuracy": "0.25 %FS", "full_scale": "10 bar", "gain": "0.3 %" } }
 //! }
@@ -34,7 +34,10 @@
 //! - `nuisance`: which sensor errors are fitted per experiment and channel
 //!   ([`crate::nuisance`]): `offset` (default true), `gain` (default true,
 //!   where the channel's prior has a gain), and per experiment the prior σ
-//!   of the logger time skew, `skew` (default 1 ms; "0 s" fits none).
+//!   of the logger time skew, `skew` (default 1 ms; "0 s" fits none);
+//!   `switch_latency`, the response time between a limit switch's trip and
+//!   the valve's command that the model does not describe (default 1 ms;
+//!   a valve delay below it is not named; "0 s" names any significant one).
 //! - `sensors`: the specification of a signal's sensor, the prior of its
 //!   offset and gain ([`crate::experiment::SensorPrior`]; defaults per
 //!   quantity in [`crate::experiment`]): `accuracy`, the offset's σ, as a
@@ -192,6 +195,8 @@ pub struct NuisanceSpec {
     pub gain: Option<bool>,
     #[serde(default)]
     pub skew: Option<Value>,
+    #[serde(default)]
+    pub switch_latency: Option<Value>,
 }
 
 /// One experiment of the manifest.
@@ -369,6 +374,13 @@ fn resolve_unescaped(m: &Manifest, flat: &graph::FlatNetlist, read: &ReadData) -
             }
             options.sensors.skew = dt;
         }
+        if let Some(v) = &n.switch_latency {
+            let dt = seconds(v, "nuisance.switch_latency")?;
+            if dt.is_nan() || !(0.0..=1.0).contains(&dt) {
+                return Err(format!("nuisance.switch_latency must be between 0 s and 1 s, got {dt}"));
+            }
+            options.switch_latency = dt;
+        }
     }
     Ok(Resolved { experiments, calibrate, options })
 }
@@ -453,7 +465,7 @@ mod tests {
         let flat = crate::netlist_edit::tests_support::meter_out();
         let text = r#"{ "experiments": [ { "data": "a.csv", "set": { "supply.p": "5 bar" }, "columns": { "p1": "head.p" }, "time_origin": 1.0 } ],
                         "calibrate": { "friction.k0": ["1 N", "60 N"] }, "noise": { "head.p": "5 mbar" }, "effects": ["valve_delay"],
-                        "nuisance": { "gain": true, "skew": "2 ms" } }"#;
+                        "nuisance": { "gain": true, "skew": "2 ms", "switch_latency": "0.5 ms" } }"#;
         let m = parse(text, "m.json").unwrap();
         let csv: String = std::iter::once("t,p1,other\n".to_string())
             .chain((0..50).map(|i| format!("{},{},{}\n", 1.0 + i as f64 * 1e-3, 1e5 + i as f64, i)))
@@ -475,6 +487,7 @@ mod tests {
         assert_eq!(r.options.effects, Some(vec!["valve_delay".to_string()]));
         assert!(r.options.sensors.offset && r.options.sensors.gain);
         assert!((r.options.sensors.skew - 2e-3).abs() < 1e-15);
+        assert!((r.options.switch_latency - 0.5e-3).abs() < 1e-15);
         // a skew bound that is not a time in [0, 1 s]
         for skew in [r#""-1 ms""#, r#""2 bar""#, "5"] {
             let text = format!(

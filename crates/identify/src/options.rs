@@ -114,7 +114,20 @@ pub struct Options {
     /// it ranked `dead_volume` fifth of six with a positive score and so
     /// pruned the right answer (docs/discrepancy.md).
     pub screen_prepare: usize,
+    /// Response time between a limit switch's trip and the valve's command
+    /// that the model does not describe (the switch's own switching time and
+    /// the controller's input filter and scan) [s]; 0 = none. A valve delay
+    /// below it is not named ([`crate::effects::LeastSize`]; default 1 ms,
+    /// docs/discrepancy.md "Thresholds").
+    pub switch_latency: f64,
     pub progress: Progress,
+}
+
+impl Options {
+    /// What the data can resolve, for the effects' least sizes.
+    pub fn resolution(&self) -> crate::effects::Resolution {
+        crate::effects::Resolution { switch_latency: self.switch_latency }
+    }
 }
 
 impl Default for Options {
@@ -134,6 +147,7 @@ impl Default for Options {
             screen_relative: 0.2,
             screen_keep: 3,
             screen_prepare: 0,
+            switch_latency: 1e-3,
             progress: Progress::default(),
         }
     }

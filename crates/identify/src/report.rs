@@ -419,6 +419,10 @@ pub enum Grade {
     /// A candidate fits in-sample but does not predict held-out experiments:
     /// the mechanism is there, its law is not the catalogue's.
     LawOutsideCatalogue,
+    /// A candidate passed every statistical test but its size is below what
+    /// has a practical consequence (a valve delay shorter than the switching
+    /// resolution): said, not named.
+    BelowPracticalSize,
     /// Something is left that no candidate explains.
     UnexplainedRemainder,
     /// The model agrees with the data within the noise and the model-form floor.
@@ -436,6 +440,11 @@ pub const MOST_OF_THE_GAP: f64 = 0.5;
 /// final model leaves is itself `significant` (a channel above
 /// `remainder_rmse`, [`crate::selection::significant`]): a share of a gap
 /// within the noise and the model-form floor is no finding:
+/// - **below practical size** when a candidate of that round failed only
+///   the practical-size test (test 5 of [`crate::selection`]): it passed
+///   every statistical test, so it is said first, with its size and the
+///   least size it falls below — a timing the data cannot attribute is not
+///   silently dropped;
 /// - **law outside the catalogue** when it removed at least
 ///   [`MOST_OF_THE_GAP`] in-sample (ΔIC below zero) but failed the
 ///   held-out tests — it does not predict the experiments it was not fitted
@@ -474,6 +483,13 @@ pub fn verdict(
         .filter(|c| c.round == last_round && !c.screened_out && !c.accepted && c.gap_explained.is_finite())
         .max_by(|a, b| a.gap_explained.total_cmp(&b.gap_explained))
         .filter(|c| c.gap_explained >= MOST_OF_THE_GAP && c.delta_ic < 0.0 && (selected.is_empty() || significant));
+    // a candidate that failed only the practical-size test passed every
+    // statistical one: it is said first, with its size and why it is not named
+    let negligible = candidates
+        .iter()
+        .filter(|c| c.round == last_round && !c.screened_out && !c.accepted && c.failed.iter().all(|t| t == "practical_size"))
+        .filter(|c| !c.failed.is_empty() && (selected.is_empty() || significant))
+        .max_by(|a, b| a.gap_explained.total_cmp(&b.gap_explained));
     let grade_of = |c: &Candidate| -> Grade {
         let heldout = c.failed.iter().any(|t| t == "heldout_gain" || t == "model_form_floor");
         if heldout && (c.heldout_gain.is_nan() || c.heldout_gain <= 0.0 || c.failed.iter().any(|t| t == "heldout_gain")) {
@@ -502,8 +518,18 @@ pub fn verdict(
             .collect::<Vec<_>>()
             .join(", ")
     };
-    let (mut v, grade) = match best {
-        Some(c) => {
+    let (mut v, grade) = match (negligible, best) {
+        (Some(c), _) => {
+            let text = format!(
+                "no missing effect of practical size: {} passes the statistical tests (removes {:.0} % of the excess χ², held-out mean square lowered by {:.0} %) but {}",
+                c.effect,
+                100.0 * c.gap_explained,
+                100.0 * c.heldout_relative,
+                c.reasons.iter().map(|r| r.trim_start_matches("practical size: ")).collect::<Vec<_>>().join("; ")
+            );
+            (if named.is_empty() { text } else { format!("{named}; then {text}") }, Grade::BelowPracticalSize)
+        }
+        (None, Some(c)) => {
             let g = grade_of(c);
             let share = format!("removes {:.0} % of the excess χ²", 100.0 * c.gap_explained);
             let text = match g {
@@ -517,9 +543,9 @@ pub fn verdict(
             };
             (if named.is_empty() { text } else { format!("{named}; then {text}") }, g)
         }
-        None if !named.is_empty() => (named, Grade::Named),
-        None if rem.is_some() => ("no catalogue effect explains the gap".to_string(), Grade::UnexplainedRemainder),
-        None => ("no missing effect found".to_string(), Grade::Nothing),
+        (None, None) if !named.is_empty() => (named, Grade::Named),
+        (None, None) if rem.is_some() => ("no catalogue effect explains the gap".to_string(), Grade::UnexplainedRemainder),
+        (None, None) => ("no missing effect found".to_string(), Grade::Nothing),
     };
     if let Some(r) = rem {
         v += &format!("; {r}");
@@ -615,6 +641,30 @@ mod tests {
         // a candidate that removed little does not grade anything
         let c = tried("dead_volume", 0.2, &["parameter"], 1.0);
         assert_eq!(verdict(&[], &[], &[], &[c], false).1, Grade::Nothing);
+    }
+
+    #[test]
+    fn a_candidate_below_its_practical_size_is_said_not_named() {
+        // varied null seed 3: valve_delay passed every statistical test with
+        // T = 0.188 ms, the rig's 0.15 ms limit-switch latency
+        let mut c = tried("valve_delay", 0.81, &[], 0.6);
+        c.heldout_relative = 0.42;
+        let why = crate::candidates::below_least_size(&crate::effects::ValveDelay, &[0.188e-3], &crate::Options::default().resolution());
+        c.fail("practical_size", why.expect("below"));
+        // a weaker candidate that failed a statistical test does not grade it
+        let other = tried("dead_volume", 0.9, &["model_form_floor"], 0.5);
+        let (v, g) = verdict(&[], &[], &[], &[other.clone(), c.clone()], false);
+        assert_eq!(g, Grade::BelowPracticalSize);
+        assert_eq!(
+            v,
+            "no missing effect of practical size: valve_delay passes the statistical tests (removes 81 % of the excess χ², \
+             held-out mean square lowered by 42 %) but T 0.188 ms is below the 1 ms timing resolution of the \
+             switching instant (limit-switch and controller response, not in the model); not named"
+        );
+        // without the practical-size test it would have been named: it is the only test it failed
+        assert_eq!(c.failed, vec!["practical_size".to_string()]);
+        // alone with the other candidate, the verdict is graded as before
+        assert_eq!(verdict(&[], &[], &[], &[other], false).1, Grade::Likely);
     }
 
     #[test]

@@ -17,7 +17,14 @@
 //!    modelling choices that no catalogue effect describes; a candidate fitted
 //!    to such a difference removes a part of it and leaves a remainder of the
 //!    same order, while a real missing effect removes far more than what
-//!    remains.
+//!    remains;
+//! 5. **practical size** ([`crate::candidates::below_least_size`]): the
+//!    effect reaches the least size of practical consequence it declares
+//!    ([`crate::effects::Effect::least_size`]) — a valve delay at least the
+//!    response time between a limit switch's trip and the valve's command
+//!    that the model does not describe (`Options::switch_latency`, 1 ms).
+//!    Below it the fit is the rig's switching timing as much as the
+//!    valve's; the verdict says so ("below practical size"), it is not named.
 //!
 //! Among passing candidates the one with the lowest ΔIC is added, unless the
 //! runner-up's held-out gain is within `ambiguity` of the winner's: then the

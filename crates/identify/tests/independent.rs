@@ -24,7 +24,8 @@
 //! forms, three cycles) is `full_matrix`, ignored here:
 //! `cargo test --release -p pneumo-identify --test independent -- --ignored --nocapture`
 //! (its table is in docs/discrepancy.md; `SEEDS=n` seeds per case,
-//! `VARIATION=nominal` or `varied` one half only, `CASES=a,b` some cases).
+//! `VARIATION=nominal` or `varied` one half only, `CASES=a,b` some cases,
+//! `FIRST_SEED=n` the first seed, `TABLE=1` every candidate's figures).
 
 mod truth;
 
@@ -73,11 +74,14 @@ fn table(o: &Outcome) -> String {
     let mut out = format!("verdict: {}\n", s.verdict);
     for c in &s.candidates {
         out += &format!(
-            "  r{} {:<18} dIC {:>10.1} held {:>7.3} {} {:?} {}\n",
+            "  r{} {:<18} dIC {:>10.1} held {:>7.3} gain {:>5.1} % floor {:>6.2} gap {:>4.0} % {} {:?} {}\n",
             c.round,
             c.effect,
             c.delta_ic,
             c.heldout_rmse,
+            100.0 * c.heldout_relative,
+            c.floor_ratio,
+            100.0 * c.gap_explained,
             if c.accepted { "PASS" } else { "fail" },
             c.params,
             c.reasons.join("; ")
@@ -158,6 +162,10 @@ fn full_matrix() {
                 let key = if o.summary.ambiguous.is_empty() { got } else { format!("ambiguous {}", o.summary.ambiguous.join("/")) };
                 *confusions.entry(if key.is_empty() { "none".into() } else { key }).or_default() += 1;
                 eprintln!("{variation:?} {} seed {seed} ({seconds:.0} s): {}", case.name(), o.summary.verdict);
+                // TABLE=1 prints every candidate's figures too
+                if std::env::var("TABLE").is_ok_and(|s| s == "1") {
+                    eprintln!("{}", table(&o));
+                }
             }
             let line = format!("| {variation:?} | {} | {exact}/{total} | {confusions:?} |", case.name());
             eprintln!("{line}");

@@ -210,3 +210,50 @@ def test_the_paper_cylinder_numbers_in_docs_linearize_are_what_linearize_gives(p
         z_digits = len(zeta_text.split(".")[1])
         assert f"{lin.frequencies_hz[k]:.{f_digits}f}" == f_text
         assert f"{lin.damping_ratios[k]:.{z_digits}f}" == zeta_text
+
+
+def matched(ours: np.ndarray, theirs: np.ndarray, rtol: float) -> np.ndarray:
+    """For each of ``ours``, the index of the nearest of ``theirs`` (each used
+    once), asserting the distance is within ``rtol`` of max(|value|, 1)."""
+    free = list(range(len(theirs)))
+    out = []
+    for z in ours:
+        k = min(free, key=lambda i: abs(theirs[i] - z))
+        assert abs(theirs[k] - z) <= rtol * max(abs(z), 1.0), (z, theirs)
+        free.remove(k)
+        out.append(k)
+    return np.array(out, dtype=int)
+
+
+@pytest.mark.parametrize("at, sets", [("rest", {}), ("rest", {"head.p0": 7e5, "rod.p0": 7.7525e5})])
+def test_zeros_per_pair_agree_with_python_control(paper, at, sets):
+    """Our zeros per output/input pair (of the pair's minimal realisation)
+    against python-control's zeros of the same single-input single-output
+    system C_i (sI − A)⁻¹ B_j + D_ij, which are its invariant zeros: they
+    include a zero at each mode the pair cannot excite or see (a decoupling
+    zero, cancelled by the pole there). So each of our zeros is one of
+    theirs, and each of theirs left over sits on an eigenvalue of A that is
+    not a pole of the pair."""
+    lin = paper.with_params(sets).linearize(at=at)
+    sys = lin.to_control()
+    for i, out in enumerate(lin.outputs):
+        for j, inp in enumerate(lin.inputs):
+            pair = lin.pair(out, inp)
+            siso = control.ss(lin.A, lin.B[:, [j]], lin.C[[i], :], lin.D[[i], [j]])
+            theirs = np.asarray(control.zeros(siso), dtype=complex)
+            theirs = theirs[np.isfinite(theirs)]
+            used = matched(pair["zeros"], theirs, 1e-6)
+            removed = [z for k, z in enumerate(theirs) if k not in used]
+            lams = np.asarray(lin.eigenvalues)
+            poles_left_out = list(lams)
+            for p in pair["poles"]:
+                poles_left_out.pop(int(np.argmin(np.abs(np.array(poles_left_out) - p))))
+            matched(np.array(removed), np.array(poles_left_out), 1e-6)
+            # and the pair's poles are poles of python-control's system
+            matched(pair["poles"], np.asarray(sys.poles()), 1e-9)
+            # the gain: G at a point off every pole and zero, k Π(s − z)/Π(s − p) against python-control
+            s0 = 3.0 + 40.0j
+            ours = pair["gain"] * np.prod(s0 - pair["zeros"]) / np.prod(s0 - pair["poles"])
+            assert ours == pytest.approx(complex(np.squeeze(siso(s0))), rel=1e-7)
+    with pytest.raises(KeyError, match="no pair"):
+        lin.pair("x", "nothing")

@@ -5,6 +5,8 @@
 // each test crate uses its own subset of these
 #![allow(dead_code)]
 
+pub mod numbers;
+
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicU64, Ordering};
 

@@ -98,6 +98,28 @@ pub fn scan_grid(params: &[EffectParam]) -> Vec<Vec<f64>> {
     grid
 }
 
+/// The smallest size of an effect that has a consequence an engineer could
+/// act on. A fit below it that passes every statistical test is not named:
+/// the verdict says what it fitted and why it is below
+/// (docs/discrepancy.md, "Selection", test 5).
+#[derive(Debug, Clone, PartialEq)]
+pub struct LeastSize {
+    /// Index of the parameter (in [`Effect::params`]) the size applies to.
+    pub param: usize,
+    /// Smallest distance from the parameter's null of consequence [SI].
+    pub size: f64,
+    /// What sets it, completing "below …" in the verdict.
+    pub why: String,
+}
+
+/// What the data can resolve, which sets the effects' [`LeastSize`]s.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Resolution {
+    /// Response time between a limit switch's trip and the valve's command
+    /// that the model does not describe (switch and controller) [s].
+    pub switch_latency: f64,
+}
+
 /// Why an effect could not be applied.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 #[error("effect {effect}: {message}")]
@@ -126,6 +148,12 @@ pub trait Effect: Send + Sync + std::fmt::Debug {
     /// Transform the netlist; `values` are SI, one per parameter. At the null
     /// values the transformed netlist behaves like the original one.
     fn apply(&self, flat: &mut FlatNetlist, values: &[f64]) -> Result<(), EffectError>;
+    /// Smallest sizes of practical consequence; the effect counts as of
+    /// practical size when any one of its parameters reaches its size. None
+    /// (the default): every statistically significant size counts.
+    fn least_size(&self, _resolution: &Resolution) -> Vec<LeastSize> {
+        Vec::new()
+    }
 }
 
 /// Every known effect.

@@ -6,12 +6,19 @@
 //!
 //! Parameter: `T` [s] in [0, 200 ms], null 0 (no block inserted).
 //!
+//! Least size: the response time between a limit switch's trip and the
+//! valve's command (`Options::switch_latency`, 1 ms by default). On a
+//! position-triggered cycle a valve delay and that response time shift the
+//! valve's switching alike and cannot be told apart; the model's cycler has
+//! none, so a fitted delay below it is the switch and controller's timing as
+//! much as the valve's (docs/discrepancy.md, "Selection", test 5).
+//!
 //! Assumptions: the same delay for energising and releasing; switching
 //! itself is instantaneous. (The valve block's own `switching_time`, a
 //! gradual first-order spool travel, is a different effect: see
 //! docs/discrepancy.md.)
 
-use super::{check_len, Effect, EffectError, EffectParam, Scale};
+use super::{check_len, Effect, EffectError, EffectParam, LeastSize, Resolution, Scale};
 use crate::netlist_edit::{add_component, fresh_id, Topology};
 use graph::FlatNetlist;
 
@@ -41,6 +48,16 @@ impl Effect for ValveDelay {
     }
     fn applies_to(&self, flat: &FlatNetlist) -> bool {
         Topology::of(flat).command.is_some()
+    }
+    fn least_size(&self, resolution: &Resolution) -> Vec<LeastSize> {
+        if resolution.switch_latency.is_nan() || resolution.switch_latency <= 0.0 {
+            return Vec::new();
+        }
+        vec![LeastSize {
+            param: 0,
+            size: resolution.switch_latency,
+            why: "timing resolution of the switching instant (limit-switch and controller response, not in the model)".into(),
+        }]
     }
     fn apply(&self, flat: &mut FlatNetlist, values: &[f64]) -> Result<(), EffectError> {
         check_len(self, values)?;

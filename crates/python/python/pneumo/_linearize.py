@@ -19,7 +19,8 @@ __all__ = ["Linearization", "operating_point_text"]
 
 def operating_point_text(at: Any) -> str:
     """The operating point as ``pneumo linearize --at`` takes it: ``"rest"``,
-    ``"t=1.2 s"``, or a number of seconds (``1.2``)."""
+    ``"t=1.2 s"``, a number of seconds (``1.2``), or a trim
+    (``"piston.x=200 mm; F=0 N"``)."""
     if isinstance(at, bool):
         raise TypeError(f"at must be 'rest', a time such as 't=1.2 s', or a number of seconds, got {at!r}")
     if isinstance(at, (int, float)):
@@ -70,12 +71,25 @@ class Linearization:
         self.u0 = np.array(op["u0"], dtype=float)
         self.y0 = np.array(op["y0"], dtype=float)
         self.dx0 = np.array(op["dx0"], dtype=float)
-        #: "rest" or "time".
+        #: "rest", "time" or "trim".
         self.kind: str = op["kind"]
         #: How the derivatives were taken ("exact state Jacobian (block partials); ...", "central differences").
         self.method: str = j["method"]
         #: ``{node id: the mode its linear model belongs to}`` (sliding, stuck, on an end stop).
         self.mechanics: Dict[str, str] = {n["id"]: n["mode"] for n in j["mechanics"]}
+        #: ``{(output, input): pair}``: each output/input pair's transfer
+        #: function G(s) = k Π(s − z)/Π(s − p) of its minimal realisation, as
+        #: ``pneumo linearize`` prints it (see :meth:`pair`).
+        self._pairs: Dict[Tuple[str, str], Dict[str, Any]] = {
+            (pr["output"], pr["input"]): {
+                "order": int(pr["order"]),
+                "poles": np.array([complex(z["re"], z["im"]) for z in pr["poles"]], dtype=complex),
+                "zeros": np.array([complex(z["re"], z["im"]) for z in pr["zeros"]], dtype=complex),
+                "gain": float(pr["gain"]),
+                "dc_gain": None if pr.get("dc_gain") is None else float(pr["dc_gain"]),
+            }
+            for pr in j.get("pairs", [])
+        }
         #: ``{state: why it is not a state of the linear model}``.
         self.left_out: Dict[str, str] = {s["state"]: s["why"] for s in j["left_out"]}
         # one entry per eigenvalue: a complex pair's mode gives λ and its conjugate
@@ -112,6 +126,17 @@ class Linearization:
                 "damping [1]": self.damping_ratios,
             }
         )
+
+    def pair(self, output: str, input: str) -> Dict[str, Any]:
+        """The transfer function from ``input`` to ``output``, G(s) = k
+        Π(s − z)/Π(s − p) of the pair's minimal realisation (the modes the
+        pair cannot excite or see removed): ``{"order", "poles", "zeros"
+        (complex numpy arrays [1/s]), "gain" (k), "dc_gain" (G(0), None with
+        a pole at 0)}``, in SI."""
+        try:
+            return self._pairs[(output, input)]
+        except KeyError:
+            raise KeyError(f"no pair {output!r}/{input!r}: outputs {self.outputs}, inputs {self.inputs}") from None
 
     def frequency_response(self, f_hz: Sequence[float]) -> np.ndarray:
         """H(j 2π f) = C (j 2π f I − A)⁻¹ B + D at the frequencies ``f_hz``

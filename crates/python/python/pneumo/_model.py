@@ -202,7 +202,9 @@ class Model:
         """The linear model about an operating point, as ``pneumo linearize``.
 
         ``at``: ``"rest"`` (the netlist's start state), a time of a run of
-        the netlist (``"t=1.2 s"``, or a number of seconds). Inputs and
+        the netlist (``"t=1.2 s"``, or a number of seconds), or a trim, the
+        equilibrium that meets stated conditions (``"piston.x=200 mm; F=0
+        N; head.p=4 bar"``, docs/linearize.md). Inputs and
         outputs are the netlist's ``interface`` section. Returns a
         :class:`pneumo.Linearization` (numpy A, B, C, D with named states,
         inputs and outputs in SI; eigenvalues, natural frequencies, damping

@@ -16,7 +16,8 @@
 //! structure) are central differences, h_j = ε^{1/3}·max(|x_j|, s_j) with
 //! s_j the state's typical size, each evaluation detached from the run (the
 //! junction solver's warm starts restored, so every difference starts the
-//! algebraic solve from the same guess). Truncation and rounding are each
+//! algebraic solve from the same guess); with the exact ∂f/∂x, ∂f/∂x's own
+//! differences are not taken. Truncation and rounding are each
 //! about 1e-10 relative; through a junction solve (solved to 1e-13
 //! relative) the entries it touches carry up to ~1e-8. [`Method`] names
 //! what produced a result; [`central_differences`] is the all-differences
@@ -84,8 +85,9 @@ pub fn recorded(model: &mut Model, t: f64, y: &[f64], columns: &[usize]) -> Resu
 /// a structure, the rest by central differences (see the module
 /// documentation). The inputs and the junction warm starts are restored.
 pub fn jacobians(model: &mut Model, t: f64, y: &[f64], columns: &[usize], outputs: &[usize]) -> Result<Jacobians, LinearizeError> {
-    let mut j = central_differences(model, t, y, columns, outputs)?;
-    let Some(structure) = Structure::new(model) else { return Ok(j) };
+    let Some(structure) = Structure::new(model) else { return central_differences(model, t, y, columns, outputs) };
+    // B, C, D by differences; A's differences are not taken, the exact A replaces them
+    let mut j = differences(model, t, y, columns, outputs, false)?;
     let mut exact = Exact::new(model, structure.pattern().clone());
     let mut values = vec![0.0; exact.pattern().nnz()];
     let mut warm = WarmStart::default();
@@ -120,6 +122,20 @@ pub fn central_differences(
     columns: &[usize],
     outputs: &[usize],
 ) -> Result<Jacobians, LinearizeError> {
+    differences(model, t, y, columns, outputs, true)
+}
+
+/// Central differences of B, C, D, and of A when `with_a` (else A is zero,
+/// and a state column costs only the evaluations of the recorded outputs,
+/// none when there are no outputs).
+fn differences(
+    model: &mut Model,
+    t: f64,
+    y: &[f64],
+    columns: &[usize],
+    outputs: &[usize],
+    with_a: bool,
+) -> Result<Jacobians, LinearizeError> {
     let n = model.n_states;
     let m = model.n_inputs();
     let p = outputs.len();
@@ -127,14 +143,19 @@ pub fn central_differences(
     let mut a = Matrix::zeros(n, columns.len());
     let mut c = Matrix::zeros(p, columns.len());
     let mut yp = y.to_vec();
-    for (col, &j) in columns.iter().enumerate() {
+    let state_columns = if with_a || p > 0 { columns } else { &[] };
+    for (col, &j) in state_columns.iter().enumerate() {
         let h = STEP * y[j].abs().max(scales[j]);
-        yp[j] = y[j] + h;
-        let (f_plus, g_plus) = (rates(model, t, &yp)?, recorded(model, t, &yp, outputs)?);
-        yp[j] = y[j] - h;
-        let (f_minus, g_minus) = (rates(model, t, &yp)?, recorded(model, t, &yp, outputs)?);
-        yp[j] = y[j];
-        for i in 0..n {
+        let mut at = |value: f64, model: &mut Model| -> Result<(Vec<f64>, Vec<f64>), LinearizeError> {
+            yp[j] = value;
+            let f = if with_a { rates(model, t, &yp)? } else { Vec::new() };
+            let g = recorded(model, t, &yp, outputs)?;
+            yp[j] = y[j];
+            Ok((f, g))
+        };
+        let (f_plus, g_plus) = at(y[j] + h, model)?;
+        let (f_minus, g_minus) = at(y[j] - h, model)?;
+        for i in 0..f_plus.len() {
             a[(i, col)] = (f_plus[i] - f_minus[i]) / (2.0 * h);
         }
         for i in 0..p {

@@ -15,7 +15,10 @@
 //! quantity), and exactly d independent constraints pick one member. Fewer
 //! is under-determined, more is over-determined; both are refused, naming
 //! the unknowns left free or the count to drop. The rank is numerical:
-//! singular values of the scaled Jacobian above 1e-8 of the largest.
+//! singular values of the scaled Jacobian above 1e-8 of the largest. It is
+//! taken at a generic point: a guess on a kink (a zero-lapped spool at
+//! centre, the netlist's start) is first moved by ~1e-6 of each unknown's
+//! scale if that raises the rank.
 //!
 //! Then Gauss–Newton on the scaled unknowns (states over their typical
 //! size, inputs over max(|u|, 1)), with the minimum-norm step of the SVD
@@ -144,12 +147,12 @@ pub fn trim(model: &mut Model, guess: &[f64], constraints: &[Constraint], fricti
     };
     let unknown_names: Vec<String> =
         states.iter().map(|&i| model.state_name(i)).chain(model.circuit.interface.inputs.iter().map(|i| i.name.clone())).collect();
-    let mut point = Point { y, u: (0..m).map(|k| model.input_value(k)).collect() };
+    let point = Point { y, u: (0..m).map(|k| model.input_value(k)).collect() };
     let problem = Problem { scales: scales(model, &point, &states), states: states.clone(), constraints: equations, t };
     let n_unknowns = states.len() + m;
 
     // the count: the family of equilibria and the constraints that pick one
-    let jf = problem.jacobian(model, &point)?;
+    let (mut point, jf) = off_kink_start(model, &problem, point)?;
     let rows_f: Vec<usize> = (0..states.len()).collect();
     let cols: Vec<usize> = (0..n_unknowns).collect();
     let family = n_unknowns - svd(&jf.select(&rows_f, &cols))?.rank(RCOND);
@@ -255,6 +258,38 @@ pub fn trim(model: &mut Model, guess: &[f64], constraints: &[Constraint], fricti
         residual: norm_inf(&residual),
     };
     Ok(OperatingPoint { t, y: point.y, kind: PointKind::Trim, trim: Some(report) })
+}
+
+/// The start of the Gauss–Newton iteration and the Jacobian there. A guess
+/// on a kink (a zero-lapped spool exactly at centre, where every opening's
+/// slope is zero on one side) has a rank-deficient Jacobian that would count
+/// a spurious direction into the family of equilibria and stall the
+/// iteration; the rank at a generic point nearby is the one that counts. So
+/// when ∂f/∂(x, u) at the guess lacks full row rank, the unknowns are moved
+/// by about 1e-6 of their scales (distinct fractions, all positive) and that
+/// point is the start if its rank is higher.
+fn off_kink_start(model: &mut Model, problem: &Problem, guess: Point) -> Result<(Point, Matrix), LinearizeError> {
+    let ns = problem.n_states();
+    // (rank of ∂f/∂(x, u), rank with the constraints' rows)
+    let ranks = |j: &Matrix| -> Result<(usize, usize), LinearizeError> {
+        let rows: Vec<usize> = (0..ns).collect();
+        let cols: Vec<usize> = (0..j.cols()).collect();
+        Ok((svd(&j.select(&rows, &cols))?.rank(RCOND), svd(j)?.rank(RCOND)))
+    };
+    let j = problem.jacobian(model, &guess)?;
+    let at_guess = ranks(&j)?;
+    if at_guess == (ns, j.rows().min(j.cols())) {
+        return Ok((guess, j));
+    }
+    let nudge: Vec<f64> = (0..j.cols()).map(|k| 1e-6 * (1.0 + 0.5 * ((k + 1) as f64).sin())).collect();
+    let nudged = problem.moved(&guess, &nudge, 1.0);
+    if let Ok(jn) = problem.jacobian(model, &nudged) {
+        if ranks(&jn)? > at_guess {
+            return Ok((nudged, jn));
+        }
+    }
+    let j = problem.jacobian(model, &guess)?;
+    Ok((guess, j))
 }
 
 /// A trial point: the whole state vector and the inputs.
