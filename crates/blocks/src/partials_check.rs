@@ -1,6 +1,6 @@
 //! Test support: a block's exact partials ([`Block::partials`]) against
 //! central differences of the phase they differentiate, for blocks whose
-//! outputs are flows, state derivatives or signals (restrictions, valves
+//! outputs are flows, state derivatives, signals or the wall exchange (restrictions, valves
 //! with states, signal blocks). Used by the blocks' unit tests on branches
 //! the shipped circuits do not visit (choked and subsonic flow, closed,
 //! opening and open valves).
@@ -15,9 +15,26 @@ pub struct Point<'a> {
     /// (p, T) at each pneumatic port.
     pub ports: Vec<(f64, f64)>,
     pub signals: Vec<f64>,
+    /// Typical size of each state (steps are 1e-4 of it); 1 where not given.
+    pub state_sizes: Vec<f64>,
+    /// Steps relative to each input's size (1e-4 unless set).
+    pub relative_step: f64,
 }
 
 impl Point<'_> {
+    /// The same point with typical sizes of the states (a tube segment's
+    /// mass is a few milligrams: a step of 1e-4 kg would empty it).
+    pub fn with_state_sizes(mut self, sizes: &[f64]) -> Self {
+        self.state_sizes = sizes.to_vec();
+        self
+    }
+    /// The same point with steps of `relative` times each input's size (for
+    /// pressure differences of a few pascals, where 1e-4 of 3 bar would
+    /// reverse the flow).
+    pub fn with_relative_step(mut self, relative: f64) -> Self {
+        self.relative_step = relative;
+        self
+    }
     fn outputs(&self, block: &dyn Block, phase: Phase, states: &[f64], ports: &[(f64, f64)], signals: &[f64]) -> Vec<f64> {
         let gas_states: Vec<GasState> = ports.iter().map(|&(p, t)| self.gas.state_pt(p, t)).collect();
         let ctx = Ctx { t: 0.0, gas: self.gas, states, pneumatic: &gas_states, mechanical: &[], signals };
@@ -39,6 +56,10 @@ impl Point<'_> {
                 block.signal_outputs(&ctx, &mut s);
                 s
             }
+            Phase::Exchange => {
+                let e = block.exchange(&ctx, &bal);
+                vec![e.heat, e.work]
+            }
             _ => panic!("{phase:?} is not checked here"),
         }
     }
@@ -54,7 +75,9 @@ impl Point<'_> {
         let mut d = Partials::default();
         d.reset(shape, phase);
         assert!(block.partials(phase, &ctx, &bal, &mut d), "{}: no partials of {phase:?}", block.type_name());
-        let mut inputs: Vec<(In, f64)> = (0..self.states.len()).map(|i| (In::State(i), self.states[i].abs().max(1.0))).collect();
+        let mut inputs: Vec<(In, f64)> = (0..self.states.len())
+            .map(|i| (In::State(i), self.states[i].abs().max(self.state_sizes.get(i).copied().unwrap_or(1.0))))
+            .collect();
         for (k, &(p, t)) in self.ports.iter().enumerate() {
             inputs.push((In::P(k), p));
             inputs.push((In::T(k), t));
@@ -77,7 +100,7 @@ impl Point<'_> {
                 let (p, m) = (at(h), at(-h));
                 p.iter().zip(&m).map(|(a, b)| (a - b) / (2.0 * h)).collect::<Vec<f64>>()
             };
-            let h = 1e-4 * size;
+            let h = self.relative_step * size;
             let (a, b) = (diff(h), diff(h / 4.0));
             let scale = b.iter().fold(0.0f64, |m, v| m.max(v.abs())).max(1e-300);
             assert!(
@@ -108,5 +131,12 @@ pub fn build(ty: &crate::registry::BlockType, raw: &[(&str, &str)]) -> Box<dyn B
 /// A point with the given states, port (p, T) and signals in air.
 pub fn point(states: &[f64], ports: &[(f64, f64)], signals: &[f64]) -> Point<'static> {
     static AIR: std::sync::OnceLock<gas::IdealGas> = std::sync::OnceLock::new();
-    Point { gas: AIR.get_or_init(gas::IdealGas::air), states: states.to_vec(), ports: ports.to_vec(), signals: signals.to_vec() }
+    Point {
+        gas: AIR.get_or_init(gas::IdealGas::air),
+        states: states.to_vec(),
+        ports: ports.to_vec(),
+        signals: signals.to_vec(),
+        state_sizes: Vec::new(),
+        relative_step: 1e-4,
+    }
 }

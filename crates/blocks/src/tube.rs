@@ -112,6 +112,26 @@ pub fn phi(re: f64) -> f64 {
     }
 }
 
+/// Slope dφ/dRe of [`phi`] (Re ≥ 0): 64 (laminar), 1.75·0.3164·Re^¾
+/// (Blasius) and the derivative of the Hermite cubic between them.
+pub fn phi_slope(re: f64) -> f64 {
+    let re = re.abs();
+    if re <= RE_LAMINAR {
+        64.0
+    } else if re >= RE_TURBULENT {
+        1.75 * 0.3164 * re.powf(0.75)
+    } else {
+        let (a, b) = (RE_LAMINAR, RE_TURBULENT);
+        let h = b - a;
+        let (y0, m0) = (64.0 * a, 64.0);
+        let y1 = 0.3164 * b.powf(1.75);
+        let m1 = 1.75 * y1 / b;
+        let t = (re - a) / h;
+        let t2 = t * t;
+        ((6.0 * t2 - 6.0 * t) * y0 + (3.0 * t2 - 4.0 * t + 1.0) * h * m0 + (-6.0 * t2 + 6.0 * t) * y1 + (3.0 * t2 - 2.0 * t) * h * m1) / h
+    }
+}
+
 /// Re with phi(Re) = target (≥ 0).
 pub fn phi_inverse(target: f64) -> f64 {
     if target.is_nan() || target <= 0.0 {
@@ -137,6 +157,45 @@ pub fn phi_inverse(target: f64) -> f64 {
         }
     }
     0.5 * (lo + hi)
+}
+
+/// One side of a joint: its gas state and how p, ρ, T and h move with the
+/// two inputs it comes from (a port's p and T, a segment's m and T).
+#[derive(Debug, Clone, Copy)]
+struct Side {
+    state: GasState,
+    inputs: [In; 2],
+    dp: [f64; 2],
+    drho: [f64; 2],
+    dt: [f64; 2],
+    dh: [f64; 2],
+}
+
+/// Slopes of a joint's flow by one input.
+#[derive(Debug, Clone, Copy, Default)]
+struct Slope {
+    mdot: f64,
+    edot: f64,
+}
+
+/// One input of a joint and the slopes (∂ṁ, ∂Ė) of its flow by it.
+type JointTerm = (In, f64, f64);
+
+/// A joint's flow (a → b) and its slopes by the two inputs of each side.
+#[derive(Debug, Clone, Copy)]
+struct JointPartials {
+    flow: PortFlow,
+    d: [[Slope; 2]; 2],
+}
+
+/// (∂γ/∂ρ, ∂γ/∂T) at a state, by central differences of the gas model's γ
+/// (as [`gas::GasModel::second_derivatives`] defaults; zero for the ideal gas).
+fn gamma_slopes(gas: &dyn gas::GasModel, s: &GasState) -> [f64; 2] {
+    let (dr, dt) = (1e-5 * s.rho.abs().max(1e-3), 1e-5 * s.t);
+    [
+        (gas.gamma(s.rho + dr, s.t) - gas.gamma(s.rho - dr, s.t)) / (2.0 * dr),
+        (gas.gamma(s.rho, s.t + dt) - gas.gamma(s.rho, s.t - dt)) / (2.0 * dt),
+    ]
 }
 
 #[derive(Debug, Clone, PartialEq)]
@@ -265,6 +324,155 @@ impl Tube {
         mdot.signum() * self.friction_drop(friction, a, b, len).abs()
     }
 
+    /// dμ/dT of Sutherland's law, μ·(3/(2T) − 1/(T + S)) (0 below the 1 K clamp).
+    fn viscosity_slope(&self, t: f64) -> f64 {
+        if t < 1.0 {
+            return 0.0;
+        }
+        self.viscosity(t) * (1.5 / t - 1.0 / (t + SUTHERLAND))
+    }
+
+    /// The quasi-steady flow of [`Tube::joint_flow`] from side a to side b
+    /// and its partials by the two sides' inputs. Differentiated in steps:
+    /// the friction flow F = sign(Δp)·φ⁻¹(|Δp|ρ̄/κ)·Aμ/D has ∂F/∂Δp =
+    /// (Aμ/D)(ρ̄/κ)/φ′(Re) (finite at Δp = 0), ∂F/∂ρ̄ = Δp·∂F/∂Δp/ρ̄ and,
+    /// with κ ∝ μ² and Aμ/D ∝ μ, ∂F/∂μ = (F − 2Δp·∂F/∂Δp)/μ, μ(T̄) by
+    /// Sutherland; the sonic flow ṁ* = A·k(γ)·√(γρp) of the upstream side
+    /// moves with its p, ρ and γ(ρ, T); the series limit ṁ = F/√(1 + q²),
+    /// q = F/ṁ*, has ∂ṁ/∂F = (1 + q²)^(−3/2), ∂ṁ/∂ṁ* = q³(1 + q²)^(−3/2);
+    /// Ė = ṁ·h_up.
+    fn joint_partials(&self, gas: &dyn gas::GasModel, a: &Side, b: &Side, len: f64) -> JointPartials {
+        let (sa, sb) = (&a.state, &b.state);
+        let flow = self.joint_flow(gas, sa, sb, len);
+        let mut out = JointPartials { flow, d: [[Slope::default(); 2]; 2] };
+        let dp = sa.p - sb.p;
+        if !dp.is_finite() {
+            return out;
+        }
+        let (kappa, flow_scale, rho) = self.friction_scales(sa, sb, len);
+        let friction = self.friction_flow(sa, sb, len);
+        let re = (friction / flow_scale).abs();
+        let f_dp = flow_scale * rho / (kappa * phi_slope(re));
+        let f_rho = dp * f_dp / rho;
+        let t_mean = 0.5 * (sa.t + sb.t);
+        let f_mu = (friction - 2.0 * dp * f_dp) / self.viscosity(t_mean);
+        let mu_t = self.viscosity_slope(t_mean);
+        // slopes of ṁ by (p, ρ, T) of each side, then γ of the upstream side
+        let (mut dm_f, mut dm_s) = (1.0, 0.0);
+        let up = if friction > 0.0 { 0 } else { 1 };
+        let up_state = if up == 0 { sa } else { sb };
+        let mut sonic_by = [0.0; 3]; // ∂ṁ*/∂(p, ρ, γ)
+        if friction != 0.0 {
+            let sonic = self.sonic_flow(gas, up_state);
+            let q = friction / sonic;
+            let c = (1.0 + q * q).powf(-1.5);
+            dm_f = c;
+            dm_s = q * q * q * c;
+            let gamma = gas.gamma(up_state.rho, up_state.t);
+            let dlnk = -(2.0 / (gamma + 1.0)).ln() / ((gamma - 1.0) * (gamma - 1.0)) - 1.0 / (2.0 * (gamma - 1.0));
+            sonic_by = [0.5 * sonic / up_state.p, 0.5 * sonic / up_state.rho, sonic * (dlnk + 0.5 / gamma)];
+        } else {
+            dm_f = if dp == 0.0 { dm_f } else { 0.0 };
+        }
+        let gamma_slopes = gamma_slopes(gas, up_state);
+        for (k, side) in [a, b].into_iter().enumerate() {
+            let sign = if k == 0 { 1.0 } else { -1.0 };
+            // ∂ṁ by p, ρ, T of this side
+            let mut by_p = dm_f * f_dp * sign;
+            let mut by_rho = dm_f * f_rho * 0.5;
+            let by_t_mu = dm_f * f_mu * mu_t * 0.5;
+            let mut by_t = by_t_mu;
+            if k == up && friction != 0.0 {
+                by_p += dm_s * sonic_by[0];
+                by_rho += dm_s * (sonic_by[1] + sonic_by[2] * gamma_slopes[0]);
+                by_t += dm_s * sonic_by[2] * gamma_slopes[1];
+            }
+            for (u, slope) in out.d[k].iter_mut().enumerate() {
+                slope.mdot = by_p * side.dp[u] + by_rho * side.drho[u] + by_t * side.dt[u];
+            }
+        }
+        // Ė = ṁ h_up, the upstream side of the flow passed
+        let h_side = if flow.mdot >= 0.0 { 0 } else { 1 };
+        let h_up = if h_side == 0 { sa.h } else { sb.h };
+        for k in 0..2 {
+            for u in 0..2 {
+                let s = &mut out.d[k][u];
+                s.edot = s.mdot * h_up + if k == h_side { flow.mdot * [a, b][k].dh[u] } else { 0.0 };
+            }
+        }
+        out
+    }
+
+    /// The steady drop of [`Tube::joint_drop`] and its slopes: by ṁ, and by
+    /// the inputs of the two sides (D = sign(ṁ)·φ(Re)κ/ρ̄, Re = F/(Aμ/D),
+    /// F = |ṁ|/√(1 − r²), r = |ṁ|/ṁ* unless clipped at 0.9999).
+    fn drop_partials(&self, gas: &dyn gas::GasModel, mdot: f64, a: &Side, b: &Side, len: f64) -> (f64, f64, [[f64; 2]; 2]) {
+        let (sa, sb) = (&a.state, &b.state);
+        let drop = self.joint_drop(gas, mdot, sa, sb, len);
+        let up = if mdot >= 0.0 { 0 } else { 1 };
+        let up_state = if up == 0 { sa } else { sb };
+        let sonic = self.sonic_flow(gas, up_state);
+        let raw = mdot.abs() / sonic;
+        let clipped = raw > 0.9999;
+        let r = raw.min(0.9999);
+        let w = 1.0 - r * r;
+        let friction = mdot.abs() / w.sqrt();
+        let (kappa, flow_scale, rho) = self.friction_scales(sa, sb, len);
+        let re = friction / flow_scale;
+        let s = mdot.signum();
+        let (phi_re, phi_d) = (phi(re), phi_slope(re));
+        // dD = s[φ′κ/ρ̄ dRe + φ dκ/ρ̄ − φκ dρ̄/ρ̄²], dRe = dF/(Aμ/D) − Re dμ/μ, dκ = 2κ dμ/μ
+        let d_by_f = s * phi_d * kappa / (rho * flow_scale);
+        let (f_mdot, f_sonic) = if clipped { (s / w.sqrt(), 0.0) } else { (s * w.powf(-1.5), -mdot.abs() * r * r / sonic * w.powf(-1.5)) };
+        let t_mean = 0.5 * (sa.t + sb.t);
+        let mu = self.viscosity(t_mean);
+        let d_by_mu = s * (-phi_d * kappa / rho * re / mu + 2.0 * phi_re * kappa / (rho * mu));
+        let d_by_rho = -s * phi_re * kappa / (rho * rho);
+        let mu_t = self.viscosity_slope(t_mean);
+        let gamma = gas.gamma(up_state.rho, up_state.t);
+        let dlnk = -(2.0 / (gamma + 1.0)).ln() / ((gamma - 1.0) * (gamma - 1.0)) - 1.0 / (2.0 * (gamma - 1.0));
+        let sonic_by = [0.5 * sonic / up_state.p, 0.5 * sonic / up_state.rho, sonic * (dlnk + 0.5 / gamma)];
+        let gamma_slopes = gamma_slopes(gas, up_state);
+        let mut by = [[0.0; 2]; 2];
+        for (k, side) in [a, b].into_iter().enumerate() {
+            let (mut by_p, mut by_rho, mut by_t) = (0.0, 0.5 * d_by_rho, 0.5 * d_by_mu * mu_t);
+            if k == up {
+                let c = d_by_f * f_sonic;
+                by_p += c * sonic_by[0];
+                by_rho += c * (sonic_by[1] + sonic_by[2] * gamma_slopes[0]);
+                by_t += c * sonic_by[2] * gamma_slopes[1];
+            }
+            for (u, v) in by[k].iter_mut().enumerate() {
+                *v = by_p * side.dp[u] + by_rho * side.drho[u] + by_t * side.dt[u];
+            }
+        }
+        (drop, d_by_f * f_mdot, by)
+    }
+
+    /// A port's gas state and its slopes by the port's (p, T).
+    fn port_side(gas: &dyn gas::GasModel, state: &GasState, k: usize) -> Side {
+        let g = crate::support::GasSlopes::at(gas, state);
+        Side { state: *state, inputs: [In::P(k), In::T(k)], dp: [1.0, 0.0], drho: [g.drho_dp, g.drho_dt], dt: [0.0, 1.0], dh: [g.dh_dp, g.dh_dt] }
+    }
+
+    /// Segment i's gas state and its slopes by its states (m, T), ρ = m/V.
+    fn segment_side(&self, ctx: &Ctx, i: usize) -> Side {
+        let state = self.segment_state(ctx, i);
+        let v = self.segment.dead_volume;
+        let (rho, t) = (state.rho, state.t);
+        let p_rho = ctx.gas.dp_drho(rho, t);
+        let p_t = ctx.gas.t_dp_dt(rho, t) / t;
+        let (h_rho, h_t) = crate::support::enthalpy_slopes(ctx.gas, rho, t);
+        Side {
+            state,
+            inputs: [In::State(2 * i), In::State(2 * i + 1)],
+            dp: [p_rho / v, p_t],
+            drho: [1.0 / v, 0.0],
+            dt: [0.0, 1.0],
+            dh: [h_rho / v, h_t],
+        }
+    }
+
     fn segment_state(&self, ctx: &Ctx, i: usize) -> GasState {
         self.segment.gas_state(ctx.gas, ctx.states[2 * i], ctx.states[2 * i + 1], 0.0)
     }
@@ -357,6 +565,104 @@ impl Block for Tube {
                 out[2 * self.n + k - 1] = self.area / dx * (seg[k - 1].p - seg[k].p - drop);
             }
         }
+    }
+    /// Exact partials: the port flows and the segments' balances by the
+    /// chain rule over the joints' slopes ([`Tube::joint_partials`], and for
+    /// gas inertia the interior joints' momentum balance with the slopes of
+    /// [`Tube::drop_partials`]); each segment's temperature rate by
+    /// [`Chamber::temperature_rate_partials`] of its net inflow; the wall heat
+    /// as the chamber's.
+    fn partials(&self, phase: Phase, ctx: &Ctx, _b: &Balances, d: &mut Partials) -> bool {
+        let n = self.n;
+        let dx = self.dx();
+        match phase {
+            Phase::Flows => {
+                let ends = [
+                    (Self::port_side(ctx.gas, &ctx.pneumatic[0], 0), self.segment_side(ctx, 0), 1.0),
+                    (self.segment_side(ctx, n - 1), Self::port_side(ctx.gas, &ctx.pneumatic[1], 1), -1.0),
+                ];
+                for (port, (a, b, sign)) in ends.iter().enumerate() {
+                    let j = self.joint_partials(ctx.gas, a, b, 0.5 * dx);
+                    for (side, slopes) in [a, b].into_iter().zip(&j.d) {
+                        for (u, slope) in slopes.iter().enumerate() {
+                            d.add(Out::Mdot(port), side.inputs[u], sign * slope.mdot);
+                            d.add(Out::Edot(port), side.inputs[u], sign * slope.edot);
+                        }
+                    }
+                }
+            }
+            Phase::Derivatives => {
+                let seg: Vec<Side> = (0..n).map(|i| self.segment_side(ctx, i)).collect();
+                let ports = [Self::port_side(ctx.gas, &ctx.pneumatic[0], 0), Self::port_side(ctx.gas, &ctx.pneumatic[1], 1)];
+                // every joint's flow and its slopes: (input, ∂ṁ, ∂Ė)
+                let mut joints: Vec<(PortFlow, Vec<JointTerm>)> = Vec::with_capacity(n + 1);
+                for k in 0..=n {
+                    let (a, b, len) = match k {
+                        0 => (&ports[0], &seg[0], 0.5 * dx),
+                        k if k == n => (&seg[n - 1], &ports[1], 0.5 * dx),
+                        k => (&seg[k - 1], &seg[k], dx),
+                    };
+                    if self.inertia && k > 0 && k < n {
+                        let state = 2 * n + k - 1;
+                        let mdot = ctx.states[state];
+                        let up = if mdot >= 0.0 { a } else { b };
+                        let mut terms = vec![(In::State(state), 1.0, up.state.h)];
+                        terms.extend((0..2).map(|u| (up.inputs[u], 0.0, mdot * up.dh[u])));
+                        joints.push((PortFlow { mdot, edot: mdot * up.state.h }, terms));
+                    } else {
+                        let j = self.joint_partials(ctx.gas, a, b, len);
+                        let mut terms = Vec::with_capacity(4);
+                        for (side, slopes) in [a, b].into_iter().zip(&j.d) {
+                            terms.extend((0..2).map(|u| (side.inputs[u], slopes[u].mdot, slopes[u].edot)));
+                        }
+                        joints.push((j.flow, terms));
+                    }
+                }
+                for i in 0..n {
+                    let (m, t) = (ctx.states[2 * i], ctx.states[2 * i + 1]);
+                    let mut inflow = joints[i].0;
+                    inflow += -joints[i + 1].0;
+                    let r = self.segment.temperature_rate_partials(ctx.gas, m, t, MechState::default(), inflow);
+                    d.add(Out::Rate(2 * i + 1), In::State(2 * i), r[0]);
+                    d.add(Out::Rate(2 * i + 1), In::State(2 * i + 1), r[1]);
+                    for (joint, sign) in [(i, 1.0), (i + 1, -1.0)] {
+                        for &(input, dm, de) in &joints[joint].1 {
+                            d.add(Out::Rate(2 * i), input, sign * dm);
+                            d.add(Out::Rate(2 * i + 1), input, sign * (r[4] * dm + r[5] * de));
+                        }
+                    }
+                }
+                if self.inertia {
+                    let c = self.area / dx;
+                    for k in 1..n {
+                        let state = 2 * n + k - 1;
+                        let (a, b) = (&seg[k - 1], &seg[k]);
+                        let (_, by_mdot, by) = self.drop_partials(ctx.gas, ctx.states[state], a, b, dx);
+                        d.add(Out::Rate(state), In::State(state), -c * by_mdot);
+                        for (s, (side, sign)) in [(a, 1.0), (b, -1.0)].into_iter().enumerate() {
+                            for ((input, dp), by_u) in side.inputs.iter().zip(side.dp).zip(by[s]) {
+                                d.add(Out::Rate(state), *input, c * (sign * dp - by_u));
+                            }
+                        }
+                    }
+                }
+            }
+            Phase::Exchange if self.segment.tau_thermal.is_finite() => {
+                // Q_w = Σ m_i c_v (T_w − T_i)/τ_T, ρ_i = m_i/V
+                let v = self.segment.dead_volume;
+                for i in 0..n {
+                    let (m, t) = (ctx.states[2 * i], ctx.states[2 * i + 1]);
+                    let rho = m / v;
+                    let cv = ctx.gas.cv(rho, t);
+                    let [cv_rho, cv_t, _, _] = ctx.gas.second_derivatives(rho, t);
+                    let wall = (self.segment.t_wall - t) / self.segment.tau_thermal;
+                    d.add(Out::Heat, In::State(2 * i), (cv + m * cv_rho / v) * wall);
+                    d.add(Out::Heat, In::State(2 * i + 1), m * (cv_t * wall - cv / self.segment.tau_thermal));
+                }
+            }
+            _ => {}
+        }
+        true
     }
     fn stored(&self, ctx: &Ctx) -> Option<Stored> {
         let mut s = Stored::default();
@@ -469,6 +775,79 @@ mod tests {
         // ṁ* = 0.6847 A p0/√(R T0) for γ = 1.4
         let sonic = 0.68473 * t.area * 6e5 / (287.05f64 * 293.15).sqrt();
         assert!(f < sonic * 1.0001 && f > 0.99 * sonic, "{f} vs {sonic}");
+    }
+
+    /// States (m, T per segment, then the interior flows) at the given
+    /// segment pressures and temperatures, and their typical sizes.
+    fn states_at(t: &Tube, segs: &[(f64, f64)], flows: &[f64]) -> (Vec<f64>, Vec<f64>) {
+        let gas = gas::IdealGas::air();
+        let v = t.segment.dead_volume;
+        let mut x = Vec::new();
+        let mut sizes = Vec::new();
+        for &(p, temp) in segs {
+            x.extend([gas.density(p, temp) * v, temp]);
+            sizes.extend([gas.density(1e5, 293.15) * v, 300.0]);
+        }
+        x.extend_from_slice(flows);
+        sizes.extend(flows.iter().map(|_| 1e-4));
+        (x, sizes)
+    }
+
+    fn check_all_phases(t: &Tube, segs: &[(f64, f64)], flows: &[f64], ports: [(f64, f64); 2]) {
+        check_with_step(t, segs, flows, ports, 1e-4);
+    }
+
+    /// Differences of pressures of a few pascals need steps far below 1e-4 of 3 bar.
+    fn check_with_step(t: &Tube, segs: &[(f64, f64)], flows: &[f64], ports: [(f64, f64); 2], relative_step: f64) {
+        use crate::partials_check::point;
+        let (x, sizes) = states_at(t, segs, flows);
+        for phase in [Phase::Flows, Phase::Derivatives, Phase::Exchange] {
+            point(&x, &ports, &[]).with_state_sizes(&sizes).with_relative_step(relative_step).check(t, phase);
+        }
+    }
+
+    #[test]
+    fn partials_equal_central_differences_in_subsonic_and_choking_flow_both_ways() {
+        let t = tube(&[("segments", RawValue::Number(3.0))]).unwrap();
+        // a → b, turbulent joints, the end joint limited by its sonic flow
+        check_all_phases(&t, &[(4e5, 300.0), (3e5, 295.0), (2e5, 290.0)], &[], [(5e5, 305.0), (1e5, 293.15)]);
+        // b → a, warmer downstream
+        check_all_phases(&t, &[(1.6e5, 290.0), (2.2e5, 300.0), (2.9e5, 310.0)], &[], [(1.2e5, 280.0), (3.3e5, 320.0)]);
+        // laminar: drops of tens of pascals
+        check_with_step(&t, &[(3e5 - 20.0, 300.0), (3e5, 299.0), (3e5 + 30.0, 298.0)], &[], [(3e5 - 50.0, 301.0), (3e5 + 45.0, 297.0)], 1e-7);
+        // a line of 20 segments vented into 0.5 bar: the short end joint
+        // chokes (friction flow over twice the sonic flow, q > 2)
+        let fine = tube(&[("segments", RawValue::Number(20.0))]).unwrap();
+        let air = gas::IdealGas::air();
+        let (a, b) = (air.state_pt(5e5, 293.15), air.state_pt(0.5e5, 293.15));
+        let q = fine.friction_flow(&a, &b, 0.5 * fine.dx()) / fine.sonic_flow(&air, &a);
+        assert!(q > 2.0, "the point should choke: q = {q}");
+        let segs: Vec<(f64, f64)> = (0..20).map(|i| (6e5 - 5e3 * i as f64, 300.0 - 0.3 * i as f64)).collect();
+        check_with_step(&fine, &segs, &[], [(6.1e5, 300.0), (0.5e5, 293.15)], 1e-5);
+        // one segment: both ends on the same states
+        let one = tube(&[("segments", RawValue::Number(1.0))]).unwrap();
+        check_all_phases(&one, &[(3e5, 300.0)], &[], [(4e5, 300.0), (2e5, 290.0)]);
+        // the laminar-turbulent transition (Re between 2000 and 4000) at an end joint
+        let gas = gas::IdealGas::air();
+        let re = |pa: f64, pb: f64| t.friction_flow(&gas.state_pt(pa, 300.0), &gas.state_pt(pb, 300.0), 0.5 * t.dx()) * t.diameter / (t.area * t.viscosity(300.0));
+        let p = 3e5;
+        let dp = (1..2000).map(|k| k as f64 * 2.0).find(|&dp| re(p + dp, p) > 3000.0).expect("a drop in the transition");
+        assert!(re(p + dp, p) < RE_TURBULENT);
+        check_with_step(&t, &[(p, 300.0), (p - 10.0, 300.0), (p - 20.0, 300.0)], &[], [(p + dp, 300.0), (p - 25.0, 300.0)], 1e-7);
+    }
+
+    #[test]
+    fn partials_equal_central_differences_with_gas_inertia() {
+        let t = tube(&[("segments", RawValue::Number(3.0)), ("inertia", RawValue::Text("yes".into()))]).unwrap();
+        let segs = [(4e5, 300.0), (3e5, 295.0), (2e5, 290.0)];
+        let ports = [(5e5, 305.0), (1e5, 293.15)];
+        // flows with and against the pressure gradient
+        check_all_phases(&t, &segs, &[2e-3, -5e-4], ports);
+        // an interior flow beyond the sonic flow: the drop's ratio is clipped
+        let gas = gas::IdealGas::air();
+        let sonic = t.sonic_flow(&gas, &gas.state_pt(4e5, 300.0));
+        check_all_phases(&t, &segs, &[1.5 * sonic, 1e-3], ports);
+        check_all_phases(&t, &segs, &[0.7 * sonic, -1.2 * sonic], ports);
     }
 
     #[test]

@@ -36,59 +36,84 @@ use blocks::block::{Balances, Ctx, GasRole, In, Partials, Phase, Shape};
 use graph::NodeCausality;
 use ode::Sparsity;
 
-/// A sparse gradient: (column, value) pairs, columns unsorted and unique.
-pub type Grad = Vec<(usize, f64)>;
+/// The gradient of one quantity over the state columns: for a small
+/// system ([`DENSE_UP_TO`] states) dense, one value per state (empty when
+/// zero), otherwise sparse (column, value) pairs, columns unsorted and unique.
+#[derive(Debug, Default, Clone)]
+pub struct Grad {
+    dense: Vec<f64>,
+    pairs: Vec<(usize, f64)>,
+}
 
-/// Dense accumulator of one gradient at a time over the columns. For a
-/// small system ([`DENSE_UP_TO`] columns) it scans every column when the
-/// gradient is taken, cheaper than remembering which were touched.
+impl Grad {
+    /// The zero gradient (keeping the storage).
+    fn clear(&mut self) {
+        self.dense.clear();
+        self.pairs.clear();
+    }
+}
+
+/// Accumulator of one gradient at a time over the state columns: dense for
+/// a small system, where adding a gradient is a short loop without branches
+/// (the representation of [`Grad`] follows it); otherwise dense storage with
+/// a record of the touched columns.
 #[derive(Debug, Default)]
 struct Acc {
     dense: Vec<f64>,
     seen: Vec<bool>,
     touched: Vec<usize>,
-    scan: bool,
+    /// Number of state columns when gradients are dense, else 0.
+    width: usize,
 }
 
-/// Columns up to which gradients are gathered by scanning (see [`Acc`]).
-const DENSE_UP_TO: usize = 64;
+/// Most states for which gradients are dense (see [`Grad`]): measured on
+/// meter_out (6 states), where sparse pairs made the chain rule cost more
+/// than the evaluations it saves.
+const DENSE_UP_TO: usize = 32;
 
 impl Acc {
-    fn size(&mut self, n: usize) {
-        self.dense.resize(n, 0.0);
-        self.seen.resize(n, false);
-        self.scan = n <= DENSE_UP_TO;
+    fn size(&mut self, n_states: usize) {
+        self.dense.clear();
+        self.dense.resize(n_states, 0.0);
+        self.seen.clear();
+        self.seen.resize(n_states, false);
+        self.touched.clear();
+        self.width = if n_states <= DENSE_UP_TO { n_states } else { 0 };
     }
     #[inline]
     fn unit(&mut self, j: usize, c: f64) {
-        if !self.scan && !self.seen[j] {
+        if self.width == 0 && !self.seen[j] {
             self.seen[j] = true;
             self.touched.push(j);
         }
         self.dense[j] += c;
     }
     #[inline]
-    fn add(&mut self, g: &[(usize, f64)], c: f64) {
+    fn add(&mut self, g: &Grad, c: f64) {
         if c == 0.0 {
             return;
         }
-        for &(j, v) in g {
+        if self.width > 0 {
+            for (a, &v) in self.dense.iter_mut().zip(&g.dense) {
+                *a += c * v;
+            }
+            return;
+        }
+        for &(j, v) in &g.pairs {
             self.unit(j, c * v);
         }
     }
     fn take(&mut self, out: &mut Grad) {
         out.clear();
-        if self.scan {
-            for (j, v) in self.dense.iter_mut().enumerate() {
-                if *v != 0.0 {
-                    out.push((j, *v));
-                    *v = 0.0;
-                }
+        if self.width > 0 {
+            if self.dense.iter().any(|&v| v != 0.0) {
+                out.dense.extend_from_slice(&self.dense);
+                self.dense.fill(0.0);
             }
             return;
         }
         for &j in &self.touched {
-            out.push((j, self.dense[j]));
+            out.pairs.push((j, self.dense[j]));
             self.dense[j] = 0.0;
             self.seen[j] = false;
         }
@@ -145,7 +170,15 @@ pub struct Exact {
     inputs: Inputs,
     /// Entries the chain rule produced outside the pattern (should stay 0).
     dropped: usize,
+    /// With dense gradients: the position in the pattern's values of
+    /// (row r, state column j) at `r * n_states + j`, [`OUTSIDE`] if none.
+    positions: Vec<u32>,
+    /// Work space of the junction clusters' implicit differentiation.
+    cluster: ClusterWork,
 }
+
+/// A (row, column) outside the pattern (see `Exact::positions`).
+const OUTSIDE: u32 = u32::MAX;
 
 fn phase_index(p: Phase) -> usize {
     Phase::ALL.iter().position(|&q| q == p).unwrap_or(0)
@@ -157,7 +190,21 @@ impl Exact {
     pub fn new(model: &Model, pattern: Sparsity) -> Exact {
         let shapes: Vec<Shape> = model.circuit.instances.iter().map(|i| Shape::of(&*i.block)).collect();
         let nb = shapes.len();
-        Exact {
+        let ns = model.n_states;
+        let positions = if ns <= DENSE_UP_TO {
+            let mut positions = vec![OUTSIDE; model.dim() * ns];
+            for j in 0..ns.min(pattern.n_columns()) {
+                for (k, &r) in pattern.column_range(j).zip(pattern.column(j)) {
+                    positions[r * ns + j] = u32::try_from(k).unwrap_or(OUTSIDE);
+                }
+            }
+            positions
+        } else {
+            Vec::new()
+        };
+        let mut exact = Exact {
+            positions,
+            cluster: ClusterWork::default(),
             pattern,
             partials: (0..nb).map(|_| (0..Phase::ALL.len()).map(|_| Partials::default()).collect()).collect(),
             fallback: vec![false; nb],
@@ -169,7 +216,9 @@ impl Exact {
             cluster_rows: Vec::new(),
             inputs: Inputs::default(),
             dropped: 0,
-        }
+        };
+        exact.size(model);
+        exact
     }
 
     /// The structure of the Jacobian this fills.
@@ -200,8 +249,18 @@ impl Exact {
         self.gradients(model, t, y);
         values.fill(0.0);
         let mut dropped = 0;
+        let ns = self.acc.width;
         for (r, row) in self.grads.rows.iter().enumerate() {
-            for &(j, v) in row {
+            for (j, &v) in row.dense.iter().enumerate() {
+                if v == 0.0 {
+                    continue;
+                }
+                match self.positions[r * ns + j] {
+                    OUTSIDE => dropped += 1,
+                    p => values[p as usize] += v,
+                }
+            }
+            for &(j, v) in &row.pairs {
                 if v == 0.0 {
                     continue;
                 }
@@ -298,13 +357,12 @@ impl Exact {
         for (b, slot) in model.slots.iter().enumerate() {
             g.flows[b].resize_with(slot.pneu_nodes.len(), Default::default);
         }
-        self.acc.size(n);
-        self.fallback.fill(false);
+        self.acc.size(model.n_states);
     }
 
     /// Gradients of every quantity of the last evaluation, in its order.
     fn gradients(&mut self, model: &Model, t: f64, y: &[f64]) {
-        self.size(model);
+        self.fallback.fill(false);
         let c = &model.circuit;
         // 1. kinematics of inertias
         for (node, mn) in c.mechanical_nodes.iter().enumerate() {
@@ -487,7 +545,9 @@ impl Exact {
     fn solve_cluster(&mut self, model: &Model, cluster: &[usize]) {
         let n = 2 * cluster.len();
         // ∂F/∂z (dense, small) and the explicit part G (one gradient per equation)
-        let mut a = vec![0.0; n * n];
+        let mut a = std::mem::take(&mut self.cluster.a);
+        a.clear();
+        a.resize(n * n, 0.0);
         self.cluster_rows.resize_with(n, Default::default);
         for (jj, &node) in cluster.iter().enumerate() {
             for which in 0..2 {
@@ -508,7 +568,9 @@ impl Exact {
                 self.acc.take(&mut self.cluster_rows[row]);
             }
         }
-        let inverse = robust_inverse(&a, n);
+        let mut work = std::mem::take(&mut self.cluster);
+        robust_inverse(&a, n, &mut work);
+        let inverse = &work.inverse;
         for (ii, &node) in cluster.iter().enumerate() {
             for which in 0..2 {
                 let u = 2 * ii + which;
@@ -523,20 +585,38 @@ impl Exact {
                 self.acc.take(&mut self.grads.gas[node][which]);
             }
         }
+        work.a = a;
+        self.cluster = work;
     }
 }
 
-/// Inverse of the n×n matrix `a` (row-major) by Gauss–Jordan with partial
+/// Reused storage of [`robust_inverse`] and of ∂F/∂z.
+#[derive(Debug, Default)]
+struct ClusterWork {
+    a: Vec<f64>,
+    scale: Vec<f64>,
+    keep: Vec<bool>,
+    idx: Vec<usize>,
+    w: Vec<f64>,
+    inverse: Vec<f64>,
+}
+
+/// Inverse of the n×n matrix `a` (row-major), into `k.inverse`, by Gauss–Jordan with partial
 /// pivoting. A pivot that is zero, or negligible against its row, marks an
 /// unknown the equations do not determine (no flow through a node): its
 /// row and column are dropped and its gradient is zero.
-fn robust_inverse(a: &[f64], n: usize) -> Vec<f64> {
-    let scale: Vec<f64> = (0..n).map(|i| a[i * n..(i + 1) * n].iter().fold(0.0f64, |m, v| m.max(v.abs()))).collect();
-    let mut keep: Vec<bool> = (0..n).map(|i| scale[i] > 0.0 && a[i * n + i].is_finite()).collect();
+fn robust_inverse(a: &[f64], n: usize, k: &mut ClusterWork) {
+    k.scale.clear();
+    k.scale.extend((0..n).map(|i| a[i * n..(i + 1) * n].iter().fold(0.0f64, |m, v| m.max(v.abs()))));
+    k.keep.clear();
+    k.keep.extend((0..n).map(|i| k.scale[i] > 0.0 && a[i * n + i].is_finite()));
     loop {
-        let idx: Vec<usize> = (0..n).filter(|&i| keep[i]).collect();
+        k.idx.clear();
+        k.idx.extend((0..n).filter(|&i| k.keep[i]));
+        let (idx, scale, w) = (&k.idx, &k.scale, &mut k.w);
         let m = idx.len();
-        let mut w = vec![0.0; m * 2 * m];
+        w.clear();
+        w.resize(m * 2 * m, 0.0);
         for (r, &i) in idx.iter().enumerate() {
             for (c, &j) in idx.iter().enumerate() {
                 w[r * 2 * m + c] = a[i * n + j] / scale[i];
@@ -572,15 +652,16 @@ fn robust_inverse(a: &[f64], n: usize) -> Vec<f64> {
             }
         }
         match failed {
-            Some(i) => keep[i] = false,
+            Some(i) => k.keep[i] = false,
             None => {
-                let mut inv = vec![0.0; n * n];
+                k.inverse.clear();
+                k.inverse.resize(n * n, 0.0);
                 for (r, &i) in idx.iter().enumerate() {
                     for (c, &j) in idx.iter().enumerate() {
-                        inv[i * n + j] = w[r * 2 * m + m + c];
+                        k.inverse[i * n + j] = w[r * 2 * m + m + c];
                     }
                 }
-                return inv;
+                return;
             }
         }
     }
