@@ -49,6 +49,34 @@ pub fn fixed(x: f64, decimals: usize) -> String {
     }
 }
 
+/// A computed number to `digits` significant digits, without trailing
+/// zeros, for prose: `51.205`, `10.2926`, `0.0012`, `1.5e-9`, `2.4e12`
+/// (an exponent outside [1e-4, 1e7), as [`num`]). A value from arithmetic
+/// (`51.20499999999999`) then prints as a person would write it.
+pub fn sig(x: f64, digits: usize) -> String {
+    let digits = digits.clamp(1, 17);
+    if !x.is_finite() || x == 0.0 {
+        return num(x);
+    }
+    if !plain_range(x) {
+        let s = format!("{:.*e}", digits - 1, x);
+        let (mantissa, exponent) = s.split_once('e').unwrap_or((&s, "0"));
+        return format!("{}e{exponent}", trim_zeros(mantissa));
+    }
+    let magnitude = x.abs().log10().floor() as i32;
+    let decimals = (digits as i32 - 1 - magnitude).max(0) as usize;
+    trim_zeros(&format!("{x:.decimals$}")).to_string()
+}
+
+/// `1.2300` → `1.23`, `2.000` → `2`, `150` stays.
+fn trim_zeros(s: &str) -> &str {
+    if s.contains('.') {
+        s.trim_end_matches('0').trim_end_matches('.')
+    } else {
+        s
+    }
+}
+
 /// Characters of echoed text kept before it is shortened.
 pub const TEXT_KEPT: usize = 60;
 /// Longest echoed text shown whole [characters].
@@ -120,6 +148,26 @@ mod tests {
         assert_eq!(num(f64::NAN), "NaN");
         assert_eq!(num(1e7), "1e7");
         assert_eq!(num(-2.5e-5), "-2.5e-5");
+    }
+
+    #[test]
+    fn sig_rounds_computed_values_to_readable_digits() {
+        assert_eq!(sig(51.20499999999999, 6), "51.205");
+        assert_eq!(sig(26.755000000000003, 6), "26.755");
+        assert_eq!(sig(10.292569971107952, 6), "10.2926");
+        assert_eq!(sig(-0.0012345678, 3), "-0.00123");
+        assert_eq!(sig(150.0, 6), "150");
+        assert_eq!(sig(99999.96, 6), "100000");
+        assert_eq!(sig(1.5e-9, 6), "1.5e-9");
+        assert_eq!(sig(2.4e300, 3), "2.4e300");
+        assert_eq!(sig(0.0, 6), "0");
+        assert_eq!(sig(f64::NAN, 6), "NaN");
+        for x in [1e300, -5e-324, f64::MAX, 123456.789, 0.1 + 0.2] {
+            let s = sig(x, 6);
+            assert!(s.len() <= 14, "{x:e}: {s}");
+            let back: f64 = s.parse().unwrap();
+            assert!((back - x).abs() <= 5e-6 * x.abs(), "{s} is {x:e} to 6 digits");
+        }
     }
 
     #[test]

@@ -210,18 +210,18 @@ pub fn set_modes(model: &mut Model, t: f64, y: &[f64], kind: PointKind, friction
     model.eval_detached(t, y, None, None)?;
     for (node, nm) in out.iter_mut().enumerate() {
         let (m, f) = (model.node_mech[node], model.node_forces[node]);
-        let x_mm = units::show::num(m.x * 1e3);
+        let x_mm = units::show::sig(m.x * 1e3, 6);
         nm.description = match nm.mode {
             Mode::Sliding { dir } => format!(
                 "sliding {} at v = {} m/s: friction slope and Coulomb level (with its pressure dependence) at that speed",
                 if dir > 0.0 { "extending" } else { "retracting" },
-                units::show::num(m.v)
+                units::show::sig(m.v, 6)
             ),
             Mode::SlidingViscous => format!(
                 "sliding about v = 0 at x = {x_mm} mm: viscous friction c = {} N s/m only; the dry friction (Coulomb {} N, breakaway {} N) drops out",
-                units::show::num(f.viscous),
-                units::show::num(f.sliding - f.viscous * m.v.abs()),
-                units::show::num(f.breakaway)
+                units::show::sig(f.viscous, 6),
+                units::show::sig(f.sliding - f.viscous * m.v.abs(), 6),
+                units::show::sig(f.breakaway, 6)
             ),
             Mode::Held { may_extend: false, .. } => {
                 format!("on its upper stop (x = {x_mm} mm): held, position and velocity are not states")
@@ -231,8 +231,8 @@ pub fn set_modes(model: &mut Model, t: f64, y: &[f64], kind: PointKind, friction
             }
             Mode::Held { .. } => format!(
                 "stuck at x = {x_mm} mm (net force {} N, breakaway level {} N): position and velocity are not states",
-                units::show::num(f.applied),
-                units::show::num(f.breakaway)
+                units::show::sig(f.applied, 6),
+                units::show::sig(f.breakaway, 6)
             ),
         };
     }
