@@ -88,6 +88,7 @@ const CHECKED_PAGES: &[(&str, usize)] = &[
     ("docs/report.md", 1),
     ("docs/position_control_tuning.md", 2),
     ("docs/circuits.md", 4),
+    ("docs/linearize.md", 2),
 ];
 
 /// Run a page's blocks — every ```sh block when `every_sh` (the tutorial),
