@@ -93,6 +93,25 @@ const RE_TURBULENT: f64 = 4000.0;
 /// Sutherland constant of air [K] (White, *Viscous Fluid Flow*, 3rd ed., Table 1-2).
 const SUTHERLAND: f64 = 110.4;
 
+/// The Hermite cubic of φ between the laminar and Blasius laws: its start
+/// Re `a`, width `h`, and the end values and slopes it matches.
+struct Transition {
+    a: f64,
+    h: f64,
+    y0: f64,
+    m0: f64,
+    y1: f64,
+    m1: f64,
+}
+
+impl Transition {
+    fn new() -> Self {
+        let (a, b) = (RE_LAMINAR, RE_TURBULENT);
+        let y1 = 0.3164 * b.powf(1.75);
+        Transition { a, h: b - a, y0: 64.0 * a, m0: 64.0, y1, m1: 1.75 * y1 / b }
+    }
+}
+
 /// f(Re)·Re²: friction factor times Re² (Darcy–Weisbach in Reynolds form), monotone in Re.
 pub fn phi(re: f64) -> f64 {
     let re = re.abs();
@@ -101,11 +120,7 @@ pub fn phi(re: f64) -> f64 {
     } else if re >= RE_TURBULENT {
         0.3164 * re.powf(1.75)
     } else {
-        let (a, b) = (RE_LAMINAR, RE_TURBULENT);
-        let h = b - a;
-        let (y0, m0) = (64.0 * a, 64.0);
-        let y1 = 0.3164 * b.powf(1.75);
-        let m1 = 1.75 * y1 / b;
+        let Transition { a, h, y0, m0, y1, m1 } = Transition::new();
         let t = (re - a) / h;
         let (t2, t3) = (t * t, t * t * t);
         (2.0 * t3 - 3.0 * t2 + 1.0) * y0 + (t3 - 2.0 * t2 + t) * h * m0 + (-2.0 * t3 + 3.0 * t2) * y1 + (t3 - t2) * h * m1
@@ -121,11 +136,7 @@ pub fn phi_slope(re: f64) -> f64 {
     } else if re >= RE_TURBULENT {
         1.75 * 0.3164 * re.powf(0.75)
     } else {
-        let (a, b) = (RE_LAMINAR, RE_TURBULENT);
-        let h = b - a;
-        let (y0, m0) = (64.0 * a, 64.0);
-        let y1 = 0.3164 * b.powf(1.75);
-        let m1 = 1.75 * y1 / b;
+        let Transition { a, h, y0, m0, y1, m1 } = Transition::new();
         let t = (re - a) / h;
         let t2 = t * t;
         ((6.0 * t2 - 6.0 * t) * y0 + (3.0 * t2 - 4.0 * t + 1.0) * h * m0 + (-6.0 * t2 + 6.0 * t) * y1 + (3.0 * t2 - 2.0 * t) * h * m1) / h
