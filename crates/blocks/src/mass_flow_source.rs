@@ -67,6 +67,21 @@ impl Block for MassFlowSource {
             _ => {}
         }
     }
+    /// ∂/∂mdot of ṁ = −mdot and Ė = −mdot·h (h of the branch `flows`
+    /// takes; at mdot = 0 the delivering side). The temperature's partials
+    /// (through the enthalpy's gas-law derivatives) are not given.
+    fn live_partials(&self, name: &str, phase: Phase, ctx: &Ctx, out: &mut [f64]) -> bool {
+        if name != "mdot" {
+            return false;
+        }
+        if phase == Phase::Flows {
+            let node = ctx.pneumatic[0];
+            let h = if self.mdot >= 0.0 { ctx.gas.enthalpy(ctx.gas.density(node.p, self.t), self.t) } else { node.h };
+            out[0] = -1.0;
+            out[1] = -h;
+        }
+        true
+    }
     /// Exact when the source is shut (a plug: no mass, no energy, whatever
     /// the node does); with a flow the enthalpy's gas-law derivatives are
     /// left to `solve`'s differences (false).
