@@ -314,6 +314,7 @@ fn to_json(lm: &LinearModel, modes: &[linear::modal::Mode], pairs: &[Pair]) -> s
         "finite_difference_blocks": lm.finite_difference_blocks,
         "difference_inputs": lm.difference_inputs,
         "difference_outputs": lm.difference_outputs,
+        "record_difference_outputs": lm.record_difference_outputs,
         "states": named(&lm.states),
         "inputs": named(&lm.inputs),
         "outputs": named(&lm.outputs),
@@ -359,10 +360,13 @@ pub fn text(r: &Linearized) -> String {
         let _ = writeln!(s, "inputs differentiated by central differences (no live partials): {}", lm.difference_inputs.join(", "));
     }
     if !lm.difference_outputs.is_empty() {
+        let _ = writeln!(s, "outputs differentiated by central differences of the whole model: {}", lm.difference_outputs.join(", "));
+    }
+    if !lm.record_difference_outputs.is_empty() {
         let _ = writeln!(
             s,
-            "outputs differentiated by central differences (recorded values without partials): {}",
-            lm.difference_outputs.join(", ")
+            "outputs whose recording block was differentiated alone by central differences (no partials): {}",
+            lm.record_difference_outputs.join(", ")
         );
     }
     let list = |v: &[linearize::Named]| v.iter().map(|n| format!("{} [{}]", n.name, n.unit)).collect::<Vec<_>>().join(", ");

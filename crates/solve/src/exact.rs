@@ -38,7 +38,7 @@
 //! a junction node, solved later in the same evaluation) is constant here,
 //! as in [`crate::jacobian::Structure`].
 
-use crate::block_differences::{differentiate, Inputs};
+use crate::block_differences::{differentiate, differentiate_record, Inputs};
 use crate::mechanics;
 use crate::model::{node_mass, Model, ModelError, N_QUADRATURE};
 use blocks::block::{Balances, Ctx, GasRole, In, Partials, Phase, Shape};
@@ -187,6 +187,8 @@ pub struct Exact {
     /// Parameter columns (see the module documentation), column
     /// `n_states + k` for parameter k.
     parameters: Vec<ParameterColumn>,
+    /// Work space of [`Exact::recorded_gradient`].
+    record_partials: Vec<f64>,
 }
 
 /// A live block parameter differentiated as an extra column.
@@ -249,6 +251,7 @@ impl Exact {
             inputs: Inputs::default(),
             dropped: 0,
             parameters: Vec::new(),
+            record_partials: Vec::new(),
         };
         exact.size(model);
         exact
@@ -289,14 +292,7 @@ impl Exact {
             Quantity::Rate(r) => &self.grads.rows[r],
             Quantity::Signal(s) => &self.grads.sig[s],
         };
-        let mut out = vec![0.0; model.n_states + self.parameters.len()];
-        for (o, &v) in out.iter_mut().zip(&g.dense) {
-            *o = v;
-        }
-        for &(j, v) in &g.pairs {
-            out[j] += v;
-        }
-        out
+        self.dense(model, g)
     }
 
     /// The structure of the Jacobian this fills.
@@ -390,40 +386,9 @@ impl Exact {
     /// Sum the chain of block `b`'s partials row `row` of `phase` over its
     /// inputs' gradients into the accumulator.
     fn chain(&mut self, model: &Model, b: usize, phase: Phase, row: usize, skip: Skip) {
-        let slot = &model.slots[b];
         let d = &self.partials[b][phase_index(phase)];
-        let g = &self.grads;
+        chain_row(&mut self.acc, &self.grads, model, b, &self.columns[b], d.row(row), skip);
         let acc = &mut self.acc;
-        for (&input, &v) in self.columns[b].iter().zip(d.row(row)) {
-            if v == 0.0 {
-                continue;
-            }
-            match input {
-                In::State(i) => acc.unit(slot.states.start + i, v),
-                In::P(k) | In::T(k) => {
-                    let node = slot.pneu_nodes[k];
-                    let skipped = match skip {
-                        Skip::Nothing => false,
-                        Skip::JunctionGas => model.circuit.pneumatic_nodes[node].causality == NodeCausality::Junction,
-                        Skip::Cluster(nodes) => nodes.contains(&node),
-                    };
-                    if !skipped {
-                        let which = usize::from(matches!(input, In::T(_)));
-                        acc.add(&g.gas[node][which], v);
-                    }
-                }
-                In::X(k) => acc.add(&g.mech[slot.mech_nodes[k]][0], v),
-                In::V(k) => acc.add(&g.mech[slot.mech_nodes[k]][1], v),
-                In::Signal(k) => acc.add(&g.sig[slot.sig_in[k]], v),
-                In::Mdot(k) | In::Edot(k) => {
-                    let which = usize::from(matches!(input, In::Edot(_)));
-                    let grad = if slot.pneu_is_effort[k] { &g.inflow[slot.pneu_nodes[k]][which] } else { &g.flows[b][k][which] };
-                    acc.add(grad, v);
-                }
-                In::Accel(k) => acc.add(&g.accel[slot.mech_nodes[k]], v),
-                In::Rate(i) => acc.add(&g.rows[slot.states.start + i], v),
-            }
-        }
         for (k, column) in self.parameters.iter().enumerate() {
             if column.block == b {
                 let v = column.rows[phase_index(phase)].get(row).copied().unwrap_or(0.0);
@@ -432,6 +397,42 @@ impl Exact {
                 }
             }
         }
+    }
+
+    /// The gradient (as [`Exact::gradient`]) of recorded value `index` of
+    /// block `b` ([`blocks::Block::record`], which has no partials): the
+    /// block's record differentiated alone by central differences over its
+    /// inputs ([`crate::block_differences::differentiate_record`]), chained
+    /// with its inputs' gradients from the last [`Exact::evaluate`] at (t, y)
+    /// (call it before the model is evaluated elsewhere). A recorded value
+    /// that reads a live parameter of its own block directly is not seen
+    /// through the parameter columns. NaN entries where the value is
+    /// undefined nearby.
+    pub fn recorded_gradient(&mut self, model: &Model, t: f64, y: &[f64], b: usize, index: usize) -> Vec<f64> {
+        let slot = &model.slots[b];
+        let block = &model.circuit.instances[b].block;
+        let ctx = model.ctx(b, t, y);
+        let balances = model.balances(b);
+        let mut partials = std::mem::take(&mut self.record_partials);
+        differentiate_record(&**block, &ctx, &balances, &self.dy[slot.states.clone()], self.shapes[b], &mut partials, &mut self.inputs);
+        let cols = self.shapes[b].n_inputs();
+        chain_row(&mut self.acc, &self.grads, model, b, &self.columns[b], &partials[index * cols..(index + 1) * cols], Skip::Nothing);
+        self.record_partials = partials;
+        let mut g = Grad::default();
+        self.acc.take(&mut g);
+        self.dense(model, &g)
+    }
+
+    /// `g` over the state then parameter columns, dense.
+    fn dense(&self, model: &Model, g: &Grad) -> Vec<f64> {
+        let mut out = vec![0.0; model.n_states + self.parameters.len()];
+        for (o, &v) in out.iter_mut().zip(&g.dense) {
+            *o = v;
+        }
+        for &(j, v) in &g.pairs {
+            out[j] += v;
+        }
+        out
     }
 
     fn size(&mut self, model: &Model) {
@@ -682,6 +683,42 @@ impl Exact {
         }
         work.a = a;
         self.cluster = work;
+    }
+}
+
+/// Sum the chain of one row of block `b`'s partials (one value per input
+/// column `columns`) over its inputs' gradients into `acc`.
+fn chain_row(acc: &mut Acc, g: &Grads, model: &Model, b: usize, columns: &[In], row: &[f64], skip: Skip) {
+    let slot = &model.slots[b];
+    for (&input, &v) in columns.iter().zip(row) {
+        if v == 0.0 {
+            continue;
+        }
+        match input {
+            In::State(i) => acc.unit(slot.states.start + i, v),
+            In::P(k) | In::T(k) => {
+                let node = slot.pneu_nodes[k];
+                let skipped = match skip {
+                    Skip::Nothing => false,
+                    Skip::JunctionGas => model.circuit.pneumatic_nodes[node].causality == NodeCausality::Junction,
+                    Skip::Cluster(nodes) => nodes.contains(&node),
+                };
+                if !skipped {
+                    let which = usize::from(matches!(input, In::T(_)));
+                    acc.add(&g.gas[node][which], v);
+                }
+            }
+            In::X(k) => acc.add(&g.mech[slot.mech_nodes[k]][0], v),
+            In::V(k) => acc.add(&g.mech[slot.mech_nodes[k]][1], v),
+            In::Signal(k) => acc.add(&g.sig[slot.sig_in[k]], v),
+            In::Mdot(k) | In::Edot(k) => {
+                let which = usize::from(matches!(input, In::Edot(_)));
+                let grad = if slot.pneu_is_effort[k] { &g.inflow[slot.pneu_nodes[k]][which] } else { &g.flows[b][k][which] };
+                acc.add(grad, v);
+            }
+            In::Accel(k) => acc.add(&g.accel[slot.mech_nodes[k]], v),
+            In::Rate(i) => acc.add(&g.rows[slot.states.start + i], v),
+        }
     }
 }
 

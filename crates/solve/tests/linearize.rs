@@ -81,7 +81,8 @@ fn closed_cylinder(tau: &str, friction: bool) -> graph::FlatNetlist {
         "connections": connections,
         "interface": {
             "inputs": { "F": { "parameter": "piston.external_force", "unit": "N" } },
-            "outputs": { "x": { "from": "piston.x", "unit": "mm" }, "p_head": { "from": "head.p", "unit": "bar" } }
+            "outputs": { "x": { "from": "piston.x", "unit": "mm" }, "p_head": { "from": "head.p", "unit": "bar" },
+                         "a": { "from": "piston.a", "unit": "m/s2" } }
         },
         "simulation": { "t_end": "0.3 s", "rtol": 1e-10, "atol": 1e-10, "sample_interval": "1 ms", "max_step": "1 ms" }
     }))
@@ -398,8 +399,11 @@ fn scaled_gap(exact: &linear::Matrix, fd: &linear::Matrix, col_scale: &[f64], ro
 /// an input) relative to the row's largest scaled entry, as for A
 /// (central differences are good to ~1e-8 there). The fallbacks are named:
 /// position_control's spool and the fed tank's density and flow are recorded
-/// values without partials, the feed's temperature a live parameter
-/// without them.
+/// values without partials (their blocks' records differenced alone and
+/// chained exactly), the feed's temperature a live parameter without them
+/// (whole-model differences); the closed cylinder's piston acceleration,
+/// recorded by the block whose live parameter (the load) is an input, is
+/// differenced whole.
 #[test]
 fn exact_input_and_output_jacobians_agree_with_central_differences() {
     enum At {
@@ -414,15 +418,22 @@ fn exact_input_and_output_jacobians_agree_with_central_differences() {
     // the trim of docs/position_control_tuning.md: the piston sliding about v = 0, both inputs acting
     let position_mid = common::flat_from_model("position_control.json", &["cyl.x0=100 mm"]);
     let tank = fed_tank();
-    type Case<'a> = (&'a str, &'a graph::FlatNetlist, At, &'a [&'a str], &'a [&'a str]);
-    let cases: [Case; 5] = [
-        ("closed cylinder at rest", &closed, At::Rest, &[], &[]),
-        ("position_control trimmed at x = 100 mm", &position_mid, At::Trim(&[("cyl.piston.x", 0.1), ("F_load", 0.0)]), &[], &["spool"]),
-        ("position_control at 0.3 s", &position, At::Time(0.3), &[], &["spool"]),
-        ("position_control at 0.6 s", &position, At::Time(0.6), &[], &["spool"]),
-        ("fed tank at 0.1 s", &tank, At::Time(0.1), &["T_feed"], &["mdot", "rho"]),
+    // (inputs by whole-model differences, outputs likewise, outputs whose block's record is differenced alone)
+    type Fallbacks<'a> = (&'a [&'a str], &'a [&'a str], &'a [&'a str]);
+    let cases: [(&str, &graph::FlatNetlist, At, Fallbacks); 5] = [
+        // the piston's recorded acceleration: its block's live parameter is the input F
+        ("closed cylinder at rest", &closed, At::Rest, (&[], &["a"], &[])),
+        (
+            "position_control trimmed at x = 100 mm",
+            &position_mid,
+            At::Trim(&[("cyl.piston.x", 0.1), ("F_load", 0.0)]),
+            (&[], &[], &["spool"]),
+        ),
+        ("position_control at 0.3 s", &position, At::Time(0.3), (&[], &[], &["spool"])),
+        ("position_control at 0.6 s", &position, At::Time(0.6), (&[], &[], &["spool"])),
+        ("fed tank at 0.1 s", &tank, At::Time(0.1), (&["T_feed"], &[], &["mdot", "rho"])),
     ];
-    for (name, flat, at, difference_inputs, difference_outputs) in cases {
+    for (name, flat, at, (difference_inputs, difference_outputs, record_outputs)) in cases {
         let mut model = driven(flat);
         let op = match at {
             At::Rest => OperatingPoint { t: 0.0, y: model.initial_state(), kind: PointKind::Rest, trim: None },
@@ -447,12 +458,27 @@ fn exact_input_and_output_jacobians_agree_with_central_differences() {
         assert_eq!(lm.method, linearize::jacobians::Method::Exact, "{name}");
         assert_eq!(lm.difference_inputs, difference_inputs, "{name}");
         assert_eq!(lm.difference_outputs, difference_outputs, "{name}");
+        assert_eq!(lm.record_difference_outputs, record_outputs, "{name}");
         let n = model.n_states;
         let kept: Vec<usize> = lm.states.iter().map(|s| (0..n).find(|&i| model.state_name(i) == s.name).unwrap()).collect();
         let (outputs, _) = linearize::output_columns(&model);
         let columns: Vec<usize> = outputs.iter().map(|o| o.1).collect();
         let exact = linearize::jacobians::jacobians(&mut model, op.t, &op.y, &kept, &columns).unwrap();
         let fd = linearize::jacobians::central_differences(&mut model, op.t, &op.y, &kept, &columns).unwrap();
+        // the cost of a call, the least of 20 (printed for docs/linearize.md, never asserted)
+        let mut least = |f: &mut dyn FnMut(&mut Model)| {
+            (0..20)
+                .map(|_| {
+                    let clock = std::time::Instant::now();
+                    f(&mut model);
+                    clock.elapsed()
+                })
+                .min()
+                .unwrap_or_default()
+        };
+        let exact_time = least(&mut |m| drop(linearize::jacobians::jacobians(m, op.t, &op.y, &kept, &columns)));
+        let fd_time = least(&mut |m| drop(linearize::jacobians::central_differences(m, op.t, &op.y, &kept, &columns)));
+        eprintln!("{name}: jacobians {exact_time:?}, central_differences {fd_time:?} (least of 20 calls)");
         assert_eq!(exact.a.rows(), n);
         // the linear model carries these matrices (rows of the kept states)
         for (r, &i) in kept.iter().enumerate() {

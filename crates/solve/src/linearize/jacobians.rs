@@ -19,13 +19,20 @@
 //! central differences of that phase, and [`Jacobians::finite_difference_blocks`]
 //! names it.
 //!
+//! An output that is a value a block records ([`blocks::Block::record`]: a
+//! valve's spool position, a chamber's density, a restriction's flow) has
+//! no partials of its own: its block's record is differentiated alone by
+//! central differences over the block's inputs
+//! ([`crate::block_differences`], as for a phase without partials) and
+//! chained exactly; [`Jacobians::record_difference_outputs`] names them.
+//!
 //! Fallback, named in [`Jacobians::difference_inputs`] and
 //! [`Jacobians::difference_outputs`]: an input whose block gives no live
-//! partials (a mass-flow source's temperature) and a recorded output that is
-//! not a signal (a valve's spool position, a chamber's density: values
-//! [`blocks::Block::record`] computes without partials) take their columns
-//! and rows of B, C, D from central differences, as does every matrix of a
-//! model without a structure: h_j = ε^{1/3}·max(|x_j|, s_j) with
+//! partials (a mass-flow source's temperature), and a recorded output of a
+//! block whose own live parameter is an input (its record may read the
+//! parameter directly) or that is undefined near the point, take their
+//! columns and rows of B, C, D from central differences of the whole model,
+//! as does every matrix of a model without a structure: h_j = ε^{1/3}·max(|x_j|, s_j) with
 //! s_j the state's typical size (for an input, max(|u|, one of its outer
 //! unit), [`input_size`]), each evaluation detached from the run (the
 //! junction solver's warm starts restored, so every difference starts the
@@ -78,8 +85,12 @@ pub struct Jacobians {
     /// (every input with [`Method::CentralDifferences`]).
     pub difference_inputs: Vec<usize>,
     /// Outputs (indices into the `outputs` asked for) whose rows of C and D
-    /// are central differences (every output with [`Method::CentralDifferences`]).
+    /// are central differences of the whole model (every output with
+    /// [`Method::CentralDifferences`]).
     pub difference_outputs: Vec<usize>,
+    /// Outputs recorded by a block without partials for them: the block's
+    /// record differentiated alone by central differences, chained exactly.
+    pub record_difference_outputs: Vec<usize>,
 }
 
 /// Relative step of the central differences (ε^{1/3}).
@@ -112,11 +123,13 @@ pub fn recorded(model: &mut Model, t: f64, y: &[f64], columns: &[usize]) -> Resu
     Ok(columns.iter().map(|&c| row[c].unwrap_or(f64::NAN)).collect())
 }
 
-/// The signal a recorded column reports, if it is a signal output.
-fn signal_of(model: &Model, column: usize) -> Option<usize> {
-    let slot = model.slots.iter().find(|s| s.outputs.contains(&column))?;
-    let k = column - slot.outputs.start;
-    (k < slot.sig_out.len()).then(|| slot.sig_out.start + k)
+/// The block that records a recorded column, the column's index among its
+/// recorded values, and the number of them that are its signal outputs (they
+/// come first).
+fn recorder(model: &Model, column: usize) -> (usize, usize, usize) {
+    let b = model.slots.iter().position(|s| s.outputs.contains(&column)).unwrap_or(0);
+    let slot = &model.slots[b];
+    (b, column - slot.outputs.start, slot.sig_out.len())
 }
 
 /// Derivatives at (t, y) and the model's current input values, for the
@@ -150,15 +163,16 @@ pub fn jacobians(model: &mut Model, t: f64, y: &[f64], columns: &[usize], output
     model.restore_warm_start_from(&warm);
     model.forget_last_evaluation();
     evaluated?;
-    let given = |k: usize| parameter_of[k].map(|c| exact.parameter_given(c));
+    // input k → its parameter column when the block gave its live partials
+    let exact_column: Vec<Option<usize>> = parameter_of.iter().map(|c| c.filter(|&c| exact.parameter_given(c))).collect();
     let (mut a, mut b) = (Matrix::zeros(n, columns.len()), Matrix::zeros(n, m));
     let (mut c, mut d) = (Matrix::zeros(p, columns.len()), Matrix::zeros(p, m));
     let fill = |g: &[f64], i: usize, x: &mut Matrix, u: &mut Matrix| {
         for (col, &j) in columns.iter().enumerate() {
             x[(i, col)] = g[j];
         }
-        for k in 0..m {
-            if let (Some(col), Some(true)) = (parameter_of[k], given(k)) {
+        for (k, column) in exact_column.iter().enumerate() {
+            if let Some(col) = column {
                 u[(i, k)] = g[n + col];
             }
         }
@@ -166,14 +180,26 @@ pub fn jacobians(model: &mut Model, t: f64, y: &[f64], columns: &[usize], output
     for i in 0..n {
         fill(&exact.gradient(model, Quantity::Rate(i)), i, &mut a, &mut b);
     }
-    let mut difference_outputs = Vec::new();
+    let (mut difference_outputs, mut record_difference_outputs) = (Vec::new(), Vec::new());
     for (i, &column) in outputs.iter().enumerate() {
-        match signal_of(model, column) {
-            Some(s) => fill(&exact.gradient(model, Quantity::Signal(s)), i, &mut c, &mut d),
-            None => difference_outputs.push(i),
+        let (block, k, n_signals) = recorder(model, column);
+        if k < n_signals {
+            fill(&exact.gradient(model, Quantity::Signal(model.slots[block].sig_out.start + k)), i, &mut c, &mut d);
+            continue;
         }
+        // a value its block records: that block's record by differences, chained exactly —
+        // unless the block's own live parameter is an input (record may read it directly)
+        if !parameters.iter().any(|&(b, _)| b == block) {
+            let g = exact.recorded_gradient(model, t, y, block, k - n_signals);
+            if g.iter().all(|v| v.is_finite()) {
+                fill(&g, i, &mut c, &mut d);
+                record_difference_outputs.push(i);
+                continue;
+            }
+        }
+        difference_outputs.push(i);
     }
-    let difference_inputs: Vec<usize> = (0..m).filter(|&k| given(k) == Some(false)).collect();
+    let difference_inputs: Vec<usize> = (0..m).filter(|&k| parameter_of[k].is_some() && exact_column[k].is_none()).collect();
     if !difference_inputs.is_empty() || !difference_outputs.is_empty() {
         // the D rows of differenced outputs need every input; the D columns of differenced inputs every output
         let inputs: Vec<usize> = if difference_outputs.is_empty() { difference_inputs.clone() } else { (0..m).collect() };
@@ -205,6 +231,7 @@ pub fn jacobians(model: &mut Model, t: f64, y: &[f64], columns: &[usize], output
         finite_difference_blocks: exact.fallback_blocks(model),
         difference_inputs,
         difference_outputs,
+        record_difference_outputs,
     })
 }
 
@@ -287,5 +314,6 @@ fn differences(
         finite_difference_blocks: Vec::new(),
         difference_inputs: (0..m).collect(),
         difference_outputs: (0..p).collect(),
+        record_difference_outputs: Vec::new(),
     })
 }

@@ -139,8 +139,11 @@ pub struct LinearModel {
     /// model (no exact partials for the live parameter they set).
     pub difference_inputs: Vec<String>,
     /// Outputs whose rows of C and D are central differences of the whole
-    /// model (recorded values that are not signals).
+    /// model (see [`jacobians::Jacobians::difference_outputs`]).
     pub difference_outputs: Vec<String>,
+    /// Outputs recorded by a block without partials for them, whose record
+    /// was differentiated alone by central differences and chained exactly.
+    pub record_difference_outputs: Vec<String>,
 }
 
 /// Why no linear model could be made.
@@ -379,7 +382,9 @@ pub fn linearize(model: &mut Model, op: &OperatingPoint, opts: &Options) -> Resu
     let f = jacobians::rates(model, t, y)?;
     let inputs = input_names(model);
     let difference_inputs = j.difference_inputs.iter().map(|&k| inputs[k].name.clone()).collect();
-    let difference_outputs = j.difference_outputs.iter().map(|&i| outputs[i].0.name.clone()).collect();
+    let names = |list: &[usize]| list.iter().map(|&i| outputs[i].0.name.clone()).collect();
+    let difference_outputs = names(&j.difference_outputs);
+    let record_difference_outputs = names(&j.record_difference_outputs);
     Ok(LinearModel {
         a,
         b,
@@ -402,5 +407,6 @@ pub fn linearize(model: &mut Model, op: &OperatingPoint, opts: &Options) -> Resu
         finite_difference_blocks: j.finite_difference_blocks,
         difference_inputs,
         difference_outputs,
+        record_difference_outputs,
     })
 }
