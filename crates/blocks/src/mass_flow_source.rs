@@ -68,17 +68,22 @@ impl Block for MassFlowSource {
         }
     }
     /// ∂/∂mdot of ṁ = −mdot and Ė = −mdot·h (h of the branch `flows`
-    /// takes; at mdot = 0 the delivering side). The temperature's partials
-    /// (through the enthalpy's gas-law derivatives) are not given.
+    /// takes; at mdot = 0 the delivering side), and ∂Ė/∂T = −mdot·∂h/∂T at
+    /// the node's pressure while delivering (drawn gas carries the node's h).
     fn live_partials(&self, name: &str, phase: Phase, ctx: &Ctx, out: &mut [f64]) -> bool {
-        if name != "mdot" {
+        if name != "mdot" && name != "T" {
             return false;
         }
         if phase == Phase::Flows {
             let node = ctx.pneumatic[0];
-            let h = if self.mdot >= 0.0 { ctx.gas.enthalpy(ctx.gas.density(node.p, self.t), self.t) } else { node.h };
-            out[0] = -1.0;
-            out[1] = -h;
+            let delivered = ctx.gas.state_pt(node.p, self.t);
+            let h = if self.mdot >= 0.0 { delivered.h } else { node.h };
+            if name == "mdot" {
+                out[0] = -1.0;
+                out[1] = -h;
+            } else if self.mdot > 0.0 {
+                out[1] = -self.mdot * crate::support::GasSlopes::at(ctx.gas, &delivered).dh_dt;
+            }
         }
         true
     }

@@ -28,7 +28,7 @@
 //!
 //! Fallback, named in [`Jacobians::difference_inputs`] and
 //! [`Jacobians::difference_outputs`]: an input whose block gives no live
-//! partials (a mass-flow source's temperature), and a recorded output of a
+//! partials (none of the library's live parameters today), and a recorded output of a
 //! block whose own live parameter is an input (its record may read the
 //! parameter directly) or that is undefined near the point, take their
 //! columns and rows of B, C, D from central differences of the whole model,
