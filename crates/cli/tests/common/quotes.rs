@@ -36,6 +36,23 @@ impl Page {
         Page::of(format!("{} (section {heading:?})", self.name), lines[..end].join("\n"))
     }
 
+    /// The lines of the page's ```` ```text ```` blocks, in order (the
+    /// outputs the docs checks compare with runs).
+    pub fn output_lines(&self) -> Vec<String> {
+        // Some(is_text) inside a fenced block
+        let mut block: Option<bool> = None;
+        let mut out = Vec::new();
+        for line in self.raw.lines() {
+            match (block, line.trim_start().strip_prefix("```")) {
+                (None, Some(info)) => block = Some(info.trim() == "text"),
+                (Some(_), Some(_)) => block = None,
+                (Some(true), None) => out.push(line.to_string()),
+                _ => {}
+            }
+        }
+        out
+    }
+
     /// The first `n` numbers written after the first occurrence of `phrase`
     /// (its words joined by single spaces), as (value, word as written).
     pub fn numbers_after(&self, phrase: &str, n: usize) -> Vec<(f64, String)> {
