@@ -74,13 +74,53 @@ impl Page {
     /// order (`None`: a number that is an input or a tolerance, not checked).
     pub fn says(&self, phrase: &str, values: &[Option<f64>]) {
         for ((written, word), value) in self.numbers_after(phrase, values.len()).iter().zip(values) {
-            let Some(value) = *value else { continue };
-            let allowed = half_ulp(word) + 0.005 * written.abs();
-            assert!(
-                (written - value).abs() <= allowed,
-                "{} is stale: after {phrase:?} it says {word}, the code gives {value} (allowed ±{allowed:e})",
-                self.name
-            );
+            if let Some(value) = *value {
+                self.reads_as(&format!("after {phrase:?}"), *written, word, value);
+            }
         }
+    }
+
+    /// The Markdown table rows (indented or not) whose first cell is
+    /// `first`, in order, each as its cells after the first: the number of
+    /// each cell (a typographic minus − read as -) with its word, or None.
+    pub fn rows(&self, first: &str) -> Vec<Vec<Option<(f64, String)>>> {
+        self.raw
+            .lines()
+            .map(str::trim)
+            .filter(|l| l.starts_with('|'))
+            .map(|l| l.trim_matches('|').split('|').map(str::trim).collect::<Vec<_>>())
+            .filter(|cells| cells[0] == first)
+            .map(|cells| {
+                cells[1..]
+                    .iter()
+                    .map(|cell| {
+                        pieces(&cell.replace('−', "-")).into_iter().find_map(|p| match p {
+                            Piece::Number(x, word) => Some((x, word)),
+                            Piece::Text(_) => None,
+                        })
+                    })
+                    .collect()
+            })
+            .collect()
+    }
+
+    /// Fails unless the cells of a row (from [`Page::rows`]) read as
+    /// `values` (`None`: not checked).
+    pub fn row_says(&self, what: &str, row: &[Option<(f64, String)>], values: &[Option<f64>]) {
+        assert!(row.len() >= values.len(), "{}: the row {what} has {} cells", self.name, row.len());
+        for (k, (cell, value)) in row.iter().zip(values).enumerate() {
+            let Some(value) = *value else { continue };
+            let (written, word) = cell.as_ref().unwrap_or_else(|| panic!("{}: the row {what} has no number in cell {}", self.name, k + 2));
+            self.reads_as(&format!("in the row {what}, cell {}", k + 2), *written, word, value);
+        }
+    }
+
+    fn reads_as(&self, place: &str, written: f64, word: &str, value: f64) {
+        let allowed = half_ulp(word) + 0.005 * written.abs();
+        assert!(
+            (written - value).abs() <= allowed,
+            "{} is stale: {place} it says {word}, the code gives {value} (allowed ±{allowed:e})",
+            self.name
+        );
     }
 }
