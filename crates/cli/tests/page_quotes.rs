@@ -102,3 +102,13 @@ fn blocks_md_s_tube_convergence_rows_are_what_the_tube_gives() {
         page.row_says(&format!("N = {n} at air's viscosity"), row, &[ms(a), None, ms(b), None, Some(m / 1e5)]);
     }
 }
+
+#[test]
+fn linearize_md_quotes_the_tuning_page_s_checked_mode() {
+    // "compares its 16.19 Hz mode": the trimmed position-control model's
+    // oscillating mode, shown by a checked output of position_control_tuning.md
+    let tuning = Page::read("docs/position_control_tuning.md");
+    let outputs = tuning.output_lines();
+    let mode = outputs.iter().find(|l| l.contains(" ± ")).map(|l| numbers(l)).expect("the tuning page's oscillating mode");
+    Page::read("docs/linearize.md").says("compares its", &[Some(mode[4])]);
+}
