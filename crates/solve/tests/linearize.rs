@@ -123,6 +123,11 @@ fn closed_form_omega(n: f64) -> f64 {
     (n / MASS * (a1 * a1 * P_HEAD / v1 + a2 * a2 * P_ROD / v2)).sqrt()
 }
 
+/// docs/linearize.md's section that quotes these tests.
+fn closed_forms_page() -> common::quotes::Page {
+    common::quotes::Page::read("docs/linearize.md").section("## Closed-form checks")
+}
+
 fn gamma(model: &Model) -> f64 {
     let rho = model.circuit.gas.density(P_HEAD, 293.15);
     model.circuit.gas.gamma(rho, 293.15)
@@ -138,6 +143,8 @@ fn adiabatic_closed_cylinder_oscillates_at_the_pneumatic_spring_frequency() {
     let expected = closed_form_omega(gamma(&model));
     let rel = (mode.natural_frequency - expected).abs() / expected;
     eprintln!("adiabatic: ω = {} rad/s, closed form {expected} rad/s, relative difference {rel:.2e}", mode.natural_frequency);
+    // docs/linearize.md's table (its last column, a rounding-level difference, is a measurement)
+    closed_forms_page().says("| τ_T = ∞ (n = γ) | ω =", &[Some(mode.natural_frequency), Some(expected)]);
     assert!(rel < 1e-6, "ω = {} vs {expected} (rel {rel:e})", mode.natural_frequency);
     assert!(mode.damping.abs() < 1e-6, "no friction, no heat exchange: ζ = {}", mode.damping);
     // B: the load enters the acceleration only, as 1/M
@@ -163,6 +170,7 @@ fn isothermal_closed_cylinder_oscillates_at_the_isothermal_spring_frequency() {
     let expected = closed_form_omega(1.0);
     let rel = (mode.natural_frequency - expected).abs() / expected;
     eprintln!("isothermal: ω = {} rad/s, closed form {expected} rad/s, relative difference {rel:.2e}", mode.natural_frequency);
+    closed_forms_page().says("| τ_T = 1e-7 s (n = 1) | ω =", &[Some(mode.natural_frequency), Some(expected)]);
     assert!(rel < 1e-6, "ω = {} vs {expected} (rel {rel:e})", mode.natural_frequency);
 }
 
@@ -177,6 +185,7 @@ fn viscous_friction_damps_as_a_mass_spring_damper() {
     let omega = closed_form_omega(gamma(&model));
     let zeta = c / (2.0 * MASS * omega);
     eprintln!("damping: ζ = {}, predicted {zeta}; ω = {}, predicted {omega}", mode.damping, mode.natural_frequency);
+    closed_forms_page().says("k4 = 0.9 | ζ =", &[Some(mode.damping), None, Some(zeta)]);
     assert!((mode.damping - zeta).abs() < 1e-6 * zeta.max(1e-3), "ζ = {} vs {zeta}", mode.damping);
     assert!((mode.natural_frequency - omega).abs() < 1e-6 * omega);
     assert!(lm.mechanics[0].description.contains("viscous"), "{}", lm.mechanics[0].description);
@@ -217,6 +226,10 @@ fn step_response_matches_the_nonlinear_model_to_second_order_in_the_amplitude() 
     let (e1, s1) = step_error(&flat, 10.0);
     let (e2, s2) = step_error(&flat, 5.0);
     eprintln!("step 10 N: |δx| ≤ {s1:.3e} m, error {e1:.3e} m; step 5 N: |δx| ≤ {s2:.3e} m, error {e2:.3e} m; ratio {:.3}", e1 / e2);
+    // "over 0.3 s: a 10 N load step moves the piston … mm and the largest difference is … m;
+    // a 5 N step, … mm and … m. Halving the amplitude divides the difference by …"
+    let quoted = [None, Some(s1 * 1e3), Some(e1), None, Some(s2 * 1e3), Some(e2), Some(e1 / e2)];
+    closed_forms_page().says("(rtol = atol = 1e-10) over 0.3 s:", &quoted);
     assert!(s1 > 1e-3, "the step moved the piston by only {s1} m");
     assert!(e1 < 0.02 * s1, "the linear model is off by {e1} m of {s1} m");
     let ratio = e1 / e2;
