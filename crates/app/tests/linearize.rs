@@ -252,3 +252,34 @@ fn the_bode_picture_draws_each_pairs_magnitude_and_phase() {
     }
     assert!(checked >= 24, "{checked}");
 }
+
+#[test]
+fn position_is_the_integral_of_velocity_in_the_factored_pairs() {
+    // position_control trimmed at mid-stroke (docs/position_control_tuning.md):
+    // x = ∫ v, so x/u = (v/u)/s — the same gain k and the same zeros. Before
+    // the zero count was bounded by the relative degree, x/u came out with
+    // k = −1.3e-21 and five spurious zeros near 1e5 1/s (the pencil's multiple
+    // infinite eigenvalue split by rounding), v/u with k = 7.2e-18.
+    let model = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../models/position_control.json");
+    let r = linearize(&LinearizeOptions {
+        model,
+        at: "cyl.piston.x=100 mm; F_load=0 N".to_string(),
+        sets: vec!["cyl.x0=100 mm".to_string()],
+        ..Default::default()
+    })
+    .unwrap_or_else(|e| panic!("{e}"));
+    let m = r.model.inputs.len();
+    let pair = |out: &str, inp: &str| {
+        let i = r.model.outputs.iter().position(|o| o.name == out).unwrap();
+        let j = r.model.inputs.iter().position(|o| o.name == inp).unwrap();
+        &r.pairs[i * m + j].pole_zero
+    };
+    let (x, v) = (pair("x", "u"), pair("v", "u"));
+    assert!((x.gain - v.gain).abs() <= 1e-6 * v.gain.abs(), "k of x/u {:e}, of v/u {:e}", x.gain, v.gain);
+    assert_eq!(x.zeros.len(), v.zeros.len(), "x/u zeros {:?}, v/u zeros {:?}", x.zeros, v.zeros);
+    for (a, b) in x.zeros.iter().zip(&v.zeros) {
+        assert!((a - b).norm() <= 1e-6 * b.norm().max(1.0), "x/u zeros {:?}, v/u zeros {:?}", x.zeros, v.zeros);
+    }
+    // no zero far beyond the model's fastest mode (the 1 ms sensor lag, 1000 1/s)
+    assert!(x.zeros.iter().all(|z| z.norm() < 1e4), "{:?}", x.zeros);
+}

@@ -6,7 +6,14 @@
 //! generalised eigenvalues of the Rosenbrock system pencil
 //! ( [A b; c d], [I 0; 0 0] ) (Emami-Naeini & Van Dooren 1982): s is a zero
 //! where [sI − A, −b; c, d] loses rank. An eigenvalue of the pencil counts as
-//! infinite when |λ| exceeds 1e8 times the pencil's norm. The gain k is
+//! infinite when |λ| exceeds 1e8 times the pencil's norm. A minimal SISO
+//! realisation of order n and relative degree r has exactly n − r finite
+//! zeros (Kailath 1980, §6.5), so only the n − r smallest are kept: with
+//! r ≥ 2 the pencil's multiple infinite eigenvalue splits under rounding
+//! into large finite values (±3.6e10 1/s on position_control's x/u), which
+//! the 1e8 test alone does not catch. r is the index of the first Markov
+//! parameter c Aᵏ b that exceeds 1e-10 ‖c‖ ‖Aᵏ b‖ (a sum that does not
+//! cancel to rounding). The gain k is
 //! G(s₀) Π(s₀ − pᵢ)/Π(s₀ − zᵢ) at a point s₀ on the imaginary axis away
 //! from every pole and zero; the DC gain is G(0) unless a pole sits at 0.
 
@@ -114,7 +121,29 @@ fn pencil_zeros(s: &crate::realization::Siso) -> Result<Vec<Complex>, LinearErro
         }
     }
     zeros.sort_by(|a, b| a.norm().total_cmp(&b.norm()).then(a.im.total_cmp(&b.im)));
+    zeros.truncate(r - relative_degree(s).min(r));
     Ok(zeros)
+}
+
+/// Relative degree of a SISO realisation: 0 if d ≠ 0, else 1 + the index of
+/// the first Markov parameter c Aᵏ b that is not rounding noise (relative
+/// 1e-10 of ‖c‖ ‖Aᵏ b‖); the order if none is.
+fn relative_degree(s: &crate::realization::Siso) -> usize {
+    let r = s.a.rows();
+    if s.d != 0.0 {
+        return 0;
+    }
+    let norm = |v: &[f64]| v.iter().map(|x| x * x).sum::<f64>().sqrt();
+    let c_norm = norm(&s.c);
+    let mut w = s.b.clone();
+    for k in 0..r {
+        let markov: f64 = s.c.iter().zip(&w).map(|(c, w)| c * w).sum();
+        if markov.abs() > 1e-10 * c_norm * norm(&w) {
+            return k + 1;
+        }
+        w = (0..r).map(|i| (0..r).map(|j| s.a[(i, j)] * w[j]).sum()).collect();
+    }
+    r
 }
 
 #[cfg(test)]
@@ -152,5 +181,41 @@ mod tests {
         assert!(close(pz.zeros[0], Complex::new(-2.0, 0.0), 1e-10), "{:?}", pz.zeros);
         assert!((pz.gain - 0.5).abs() < 1e-12);
         assert_eq!(pz.dc_gain, None);
+    }
+
+    #[test]
+    fn a_chain_of_integrators_with_a_high_relative_degree_has_no_spurious_zeros() {
+        // G(s) = 2 κ' (s + 3) / ((s + 1)(s + 2)(s + 4)(s + 5)(s + 6)),
+        // relative degree 4, as a chain of first-order lags whose output
+        // mixes the last two states: order 5, so exactly one finite zero;
+        // a second case with couplings spread over decades (as in a
+        // pneumatic chain: spool, flow, pressure, velocity, position). The
+        // regression case of the truncation to n − r zeros is
+        // position_control's x/u (crates/app/tests/linearize.rs)
+        for scale in [1.0, 1e4] {
+            let mut a = Matrix::zeros(5, 5);
+            let poles = [-1.0, -2.0, -4.0, -5.0, -6.0];
+            for (i, p) in poles.iter().enumerate() {
+                a[(i, i)] = *p;
+                if i > 0 {
+                    // x_i' = p x_i + g x_{i-1}, gains alternately large and small
+                    a[(i, i - 1)] = if i % 2 == 0 { scale } else { 1.0 / scale };
+                }
+            }
+            let mut b = vec![0.0; 5];
+            b[0] = 1.0;
+            // y = c x with c picking x_4 and x_3 so that G has one zero
+            let mut c = vec![0.0; 5];
+            let gain: f64 = (1..5).map(|i| a[(i, i - 1)]).product();
+            c[4] = 2.0 / gain;
+            // x_4 = a43 x_3 / (s + 6): y = (2/gain)(a43/(s+6) + κ) x_3 = zero at −6 − a43/κ
+            let a43 = a[(4, 3)];
+            let kappa = -a43 / 3.0; // zero at −6 + 3 = −3
+            c[3] = 2.0 / gain * kappa;
+            let pz = pole_zero(&a, &b, &c, 0.0).unwrap();
+            assert_eq!(pz.order, 5);
+            assert_eq!(pz.zeros.len(), 1, "scale {scale}: {:?}", pz.zeros);
+            assert!(close(pz.zeros[0], Complex::new(-3.0, 0.0), 1e-8), "{:?}", pz.zeros);
+        }
     }
 }
