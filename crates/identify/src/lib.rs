@@ -48,6 +48,7 @@ pub mod problem;
 pub mod report;
 pub mod rng;
 pub mod selection;
+pub mod sham;
 pub mod stats;
 pub mod synth;
 pub mod workflow;
