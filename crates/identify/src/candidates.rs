@@ -247,12 +247,15 @@ pub struct Candidate {
     pub heldout_relative: f64,
     /// Fraction of the current model's excess χ² (above N) removed.
     pub gap_explained: f64,
+    /// ΔIC of the generic correction with as many parameters, fitted on the
+    /// same data (the sham test, [`crate::sham`]); NaN when not computed.
+    pub sham_delta_ic: f64,
     pub accepted: bool,
     /// Why it was not accepted (empty when it passed every test).
     pub reasons: Vec<String>,
     /// The tests it failed, by name: `fit`, `screen`, `parameter`, `bound`,
     /// `information_criterion`, `heldout_gain`, `model_form_floor`,
-    /// `practical_size`, `remainder`.
+    /// `practical_size`, `sham`, `remainder`.
     pub failed: Vec<String>,
     /// Remarks that do not reject it (a shape parameter at a bound).
     pub notes: Vec<String>,
@@ -286,6 +289,7 @@ impl Candidate {
             floor_ratio: f64::NAN,
             heldout_relative: f64::NAN,
             gap_explained: 0.0,
+            sham_delta_ic: f64::NAN,
             accepted: false,
             reasons: vec![],
             failed: vec![],

@@ -9,15 +9,17 @@
 //!    [`stats`] (correlated residuals: effective sample size, information
 //!    criterion, covariance), [`data`] (measured CSV, noise estimate),
 //!    [`experiment`] (channels on simulation time), [`netlist_edit`],
-//!    [`effects`] (the catalogue), [`manifest`]'s inputs;
+//!    [`effects`] (the catalogue), [`phases`] (where in the cycle a sample
+//!    lies), [`manifest`]'s inputs;
 //! 2. **the fitting problem** — [`params`] (fitted parameters), [`nuisance`]
 //!    (sensor offsets and gains), [`problem`] (simulation and residuals),
 //!    [`fit`] (least squares with continuation and honest statistics);
 //! 3. **candidates** — [`options`], [`heldout`] (leave-one-experiment-out
 //!    predictions), [`candidates`] (trying one effect);
 //! 4. **selection** — [`selection`] (the tests, the model-form floor, the
-//!    greedy search and its backward check);
-//! 5. **report** — [`phases`], [`diagnose`], [`report`] (traces, remainder,
+//!    greedy search and its backward check), [`sham`] (the generic
+//!    correction a candidate must beat);
+//! 5. **report** — [`diagnose`], [`report`] (traces, remainder,
 //!    verdict), and [`workflow`], which runs the stages in order;
 //!    [`manifest`] turns a manifest file into the workflow's inputs.
 //!
@@ -48,6 +50,7 @@ pub mod problem;
 pub mod report;
 pub mod rng;
 pub mod selection;
+pub mod sham;
 pub mod stats;
 pub mod synth;
 pub mod workflow;

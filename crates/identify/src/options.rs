@@ -120,6 +120,10 @@ pub struct Options {
     /// below it is not named ([`crate::effects::LeastSize`]; default 1 ms,
     /// docs/discrepancy.md "Thresholds").
     pub switch_latency: f64,
+    /// The sham test ([`crate::sham`], test 6 of [`crate::selection`]): a
+    /// candidate must beat a generic per-phase correction with as many
+    /// parameters fitted on the same data. On by default.
+    pub sham: bool,
     pub progress: Progress,
 }
 
@@ -148,6 +152,7 @@ impl Default for Options {
             screen_keep: 3,
             screen_prepare: 0,
             switch_latency: 1e-3,
+            sham: true,
             progress: Progress::default(),
         }
     }

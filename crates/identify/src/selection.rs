@@ -24,7 +24,12 @@
 //!    response time between a limit switch's trip and the valve's command
 //!    that the model does not describe (`Options::switch_latency`, 1 ms).
 //!    Below it the fit is the rig's switching timing as much as the
-//!    valve's; the verdict says so ("below practical size"), it is not named.
+//!    valve's; the verdict says so ("below practical size"), it is not named;
+//! 6. **sham** ([`crate::sham`]): B's ΔIC is below that of a generic
+//!    correction with as many parameters (per-phase biases and time shifts
+//!    of the channels, shared by all experiments, with a linear refit of the
+//!    calibration) fitted on the same data — an effect that explains no
+//!    more than a generic correction of its size is not what the data show.
 //!
 //! Among passing candidates the one with the lowest ΔIC is added, unless the
 //! runner-up's held-out gain is within `ambiguity` of the winner's: then the
@@ -464,6 +469,26 @@ pub fn search<'a>(
                     c.fail(test, why);
                 }
             });
+        }
+        // the sham test (test 6): a generic correction of the same size, fitted
+        // once per round on the current model, sets the bar for every candidate
+        if opts.sham && results.iter().any(|(s, _)| s.is_some()) {
+            let max_k = results.iter().filter_map(|(s, _)| s.as_ref()).map(|s| s.params.len() - current.params.len()).max().unwrap_or(0);
+            match crate::sham::fit_sham(base, experiments, &current, max_k, opts) {
+                Ok(sham) => {
+                    out.evaluations += experiments.len();
+                    opts.progress.say(&format!("  sham: {}", sham.columns.join(", ")));
+                    for (s, c) in results.iter_mut() {
+                        let Some(s) = s.as_ref() else { continue };
+                        let k = s.params.len() - current.params.len();
+                        c.sham_delta_ic = sham.delta_ic(&current.fit.stats, k).unwrap_or(f64::NAN);
+                        if let Some(why) = sham.failure(&current.fit.stats, k, c.delta_ic) {
+                            c.fail("sham", why);
+                        }
+                    }
+                }
+                Err(e) => opts.progress.say(&format!("  sham: not fitted ({e})")),
+            }
         }
         for c in pruned {
             out.evaluations += c.evaluations;

@@ -74,10 +74,11 @@ fn table(o: &Outcome) -> String {
     let mut out = format!("verdict: {}\n", s.verdict);
     for c in &s.candidates {
         out += &format!(
-            "  r{} {:<18} dIC {:>10.1} held {:>7.3} gain {:>5.1} % floor {:>6.2} gap {:>4.0} % {} {:?} {}\n",
+            "  r{} {:<18} dIC {:>10.1} sham {:>9.1} held {:>7.3} gain {:>5.1} % floor {:>6.2} gap {:>4.0} % {} {:?} {}\n",
             c.round,
             c.effect,
             c.delta_ic,
+            c.sham_delta_ic,
             c.heldout_rmse,
             100.0 * c.heldout_relative,
             c.floor_ratio,
