@@ -4,9 +4,11 @@
 //! instants, root-function evaluations) of the circuit of `benches/drives.rs`
 //! for the drive counts given on the command line.
 //!
-//! Run: `cargo run --release -p pneumo-solve --example drives_scaling -- [--in-step] [--t-end S] [--repeat R] N...`
-//! (default N = 32 64 128 256, staggered strokes, 6 s simulated, best of
-//! R = 1 runs). Prints one line per N, the fitted exponent k of time ∝ N^k
+//! Run: `cargo run --release -p pneumo-solve --example drives_scaling -- [--in-step | --distinct] [--t-end S] [--repeat R] N...`
+//! (default N = 32 64 128 256, staggered strokes (eight lengths, as in the
+//! benchmark), 6 s simulated, best of R = 1 runs; `--in-step`: all strokes
+//! alike; `--distinct`: every drive its own stroke; `--phases`: time one
+//! evaluation and one Jacobian instead of runs). Prints one line per N, the fitted exponent k of time ∝ N^k
 //! between the first and the last N and per doubling, and the same for the
 //! time per unit of work (one model evaluation of one drive). Reported in
 //! docs/performance.md.
@@ -18,6 +20,7 @@ mod drives;
 struct Run {
     n: usize,
     wall: f64,
+    cpu: f64,
     evaluations: u64,
 }
 
@@ -26,12 +29,14 @@ fn main() {
     let mut t_end = 6.0;
     let mut repeat = 1usize;
     let mut phases = false;
+    let mut distinct = false;
     let mut ns = Vec::new();
     let mut args = std::env::args().skip(1);
     while let Some(a) = args.next() {
         match a.as_str() {
             "--in-step" => staggered = false,
             "--phases" => phases = true,
+            "--distinct" => distinct = true,
             "--t-end" => t_end = args.next().and_then(|v| v.parse().ok()).expect("--t-end S"),
             "--repeat" => repeat = args.next().and_then(|v| v.parse().ok()).expect("--repeat R"),
             n => ns.push(n.parse::<usize>().expect("a drive count")),
@@ -46,29 +51,41 @@ fn main() {
         }
         return;
     }
-    println!("{} drives, {t_end} s simulated, best of {repeat}", if staggered { "staggered" } else { "in-step" });
-    println!("| N | states | wall [s] | steps | rejected | model evaluations | of them f | Jacobians | LU | events | event instants | root evaluations | µs per evaluation and drive |");
-    println!("|---|---|---|---|---|---|---|---|---|---|---|---|---|");
+    let kind = match (distinct, staggered) {
+        (true, _) => "distinct-stroke",
+        (false, true) => "staggered",
+        (false, false) => "in-step",
+    };
+    println!("{kind} drives, {t_end} s simulated, best of {repeat}");
+    println!("| N | states | wall [s] | CPU [s] | steps | rejected | model evaluations | of them f | Jacobians | LU | events | event instants | root evaluations | CPU µs per evaluation and drive |");
+    println!("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|");
     let mut runs = Vec::new();
     for &n in &ns {
-        let circuit = graph::build(&drives::drives(n, staggered)).expect("the drives circuit builds");
+        let netlist = if distinct {
+            // every drive its own stroke, 310 … 450 mm: no two switch together
+            drives::drives_with_strokes(n, |i| 310.0 + 140.0 * i as f64 / n as f64)
+        } else {
+            drives::drives(n, staggered)
+        };
+        let circuit = graph::build(&netlist).expect("the drives circuit builds");
         let mut opts = solve::options_from(&circuit.simulation).expect("settings");
         opts.sample_interval = 0.0;
         opts.t_end = t_end;
-        let mut best = f64::INFINITY;
+        let (mut best, mut best_cpu) = (f64::INFINITY, f64::INFINITY);
         let mut last = None;
         for _ in 0..repeat {
             let mut model = solve::Model::new(circuit.clone());
-            let start = std::time::Instant::now();
+            let (start, cpu_start) = (std::time::Instant::now(), cpu_seconds());
             let r = solve::simulate(&mut model, &opts).expect("simulates");
             best = best.min(start.elapsed().as_secs_f64());
+            best_cpu = best_cpu.min(cpu_seconds() - cpu_start);
             last = Some((model, r));
         }
         let (model, r) = last.expect("at least one run");
         let mut instants: Vec<f64> = r.events.iter().map(|e| e.t).collect();
         instants.dedup();
         println!(
-            "| {n} | {} | {best:.3} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {:.2} |",
+            "| {n} | {} | {best:.3} | {best_cpu:.3} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {:.2} |",
             model.n_states,
             r.stats.steps,
             r.stats.rejected,
@@ -79,28 +96,40 @@ fn main() {
             r.events.len(),
             instants.len(),
             model.root_evaluations,
-            best / (r.rhs_evaluations as f64 * n as f64) * 1e6,
+            best_cpu / (r.rhs_evaluations as f64 * n as f64) * 1e6,
         );
-        runs.push(Run { n, wall: best, evaluations: r.rhs_evaluations });
+        runs.push(Run { n, wall: best, cpu: best_cpu, evaluations: r.rhs_evaluations });
     }
     if runs.len() > 1 {
-        // exponent of time ∝ N^k, of the whole run or of one model evaluation
-        let k = |a: &Run, b: &Run, per_evaluation: bool| {
-            let cost = |r: &Run| if per_evaluation { r.wall / r.evaluations as f64 } else { r.wall };
-            (cost(b) / cost(a)).ln() / (b.n as f64 / a.n as f64).ln()
+        // exponent of time ∝ N^k: of the whole run (wall and CPU time) and of one model evaluation (CPU)
+        let k = |a: &Run, b: &Run, cost: &dyn Fn(&Run) -> f64| (cost(b) / cost(a)).ln() / (b.n as f64 / a.n as f64).ln();
+        let wall = |r: &Run| r.wall;
+        let cpu = |r: &Run| r.cpu;
+        let per_evaluation = |r: &Run| r.cpu / r.evaluations as f64;
+        let line = |a: &Run, b: &Run| {
+            format!(
+                "k = {:.2} (wall), {:.2} (CPU), {:.2} (CPU per model evaluation)",
+                k(a, b, &wall),
+                k(a, b, &cpu),
+                k(a, b, &per_evaluation)
+            )
         };
         let (first, last) = (&runs[0], &runs[runs.len() - 1]);
-        println!(
-            "k = {:.2} (wall), {:.2} (wall per model evaluation) between N = {} and N = {}",
-            k(first, last, false),
-            k(first, last, true),
-            first.n,
-            last.n
-        );
+        println!("{} between N = {} and N = {}", line(first, last), first.n, last.n);
         for w in runs.windows(2) {
-            println!("  {} → {}: k = {:.2} (wall), {:.2} (per evaluation)", w[0].n, w[1].n, k(&w[0], &w[1], false), k(&w[0], &w[1], true));
+            println!("  {} → {}: {}", w[0].n, w[1].n, line(&w[0], &w[1]));
         }
     }
+}
+
+/// CPU time of this thread so far [s] (from /proc/thread-self/schedstat: the
+/// time it ran, not the time it waited for a core on a loaded machine); NaN
+/// where that file does not exist.
+fn cpu_seconds() -> f64 {
+    std::fs::read_to_string("/proc/thread-self/schedstat")
+        .ok()
+        .and_then(|s| s.split_whitespace().next().and_then(|ns| ns.parse::<f64>().ok()))
+        .map_or(f64::NAN, |ns| ns * 1e-9)
 }
 
 /// Time one model evaluation and one Jacobian (grouped differences) of N
