@@ -35,9 +35,9 @@
 //! junction node, solved later in the same evaluation) are not dependencies
 //! here, as they are not in the evaluation itself. A perturbed evaluation's
 //! values are read from the model's block buffers, where it left them (an
-//! evaluation writes every buffer before it reads it, except what an effort
-//! is given and does not read: efforts read only their states and mechanical
-//! ports, as the structure above assumes), and the buffers of the
+//! evaluation writes every buffer before it reads it; an effort is handed its
+//! block's gas and signal buffers too, but reads only its states and
+//! mechanical ports, as the structure above assumes), and the buffers of the
 //! base evaluation are put back once, after the last group: two copies of
 //! every block's buffers per Jacobian rather than two per group, which with
 //! hundreds of drives was memory traffic that outgrew the caches.
@@ -79,6 +79,15 @@ struct Reach {
 
 /// Position of a row the column does not have.
 const ABSENT: usize = usize::MAX;
+
+/// Position of the i-th of consecutive rows that start at position `first`.
+fn nth(first: usize, i: usize) -> usize {
+    if first == ABSENT {
+        ABSENT
+    } else {
+        first + i
+    }
+}
 
 /// The structure of the model's Jacobian (see the module documentation).
 #[derive(Debug, Clone)]
@@ -415,14 +424,14 @@ impl Structure {
             block.derivatives(&ctx, &balances, &mut w.out);
         }
         for (i, row) in slot.states.clone().enumerate() {
-            put(r.states_at + i, (w.out[i] - dy_base[row]) / dj);
+            put(nth(r.states_at, i), (w.out[i] - dy_base[row]) / dj);
         }
         if !slot.quad.is_empty() {
             w.qout.clear();
             w.qout.resize(slot.quad.len(), 0.0);
             block.quadrature_rates(&ctx, &balances, &w.out, &mut w.qout);
             for (i, row) in slot.quad.clone().enumerate() {
-                put(r.quad_at + i, (w.qout[i] - dy_base[row]) / dj);
+                put(nth(r.quad_at, i), (w.qout[i] - dy_base[row]) / dj);
             }
         }
         if slot.states.is_empty() {
