@@ -312,6 +312,9 @@ fn to_json(lm: &LinearModel, modes: &[linear::modal::Mode], pairs: &[Pair]) -> s
                              "x0": lm.x0, "u0": lm.u0, "y0": lm.y0, "dx0": lm.dx0 },
         "method": lm.method.name(),
         "finite_difference_blocks": lm.finite_difference_blocks,
+        "difference_inputs": lm.difference_inputs,
+        "difference_outputs": lm.difference_outputs,
+        "record_difference_outputs": lm.record_difference_outputs,
         "states": named(&lm.states),
         "inputs": named(&lm.inputs),
         "outputs": named(&lm.outputs),
@@ -352,6 +355,19 @@ pub fn text(r: &Linearized) -> String {
     );
     if !lm.finite_difference_blocks.is_empty() {
         let _ = writeln!(s, "blocks differentiated by central differences (no partials): {}", lm.finite_difference_blocks.join(", "));
+    }
+    if !lm.difference_inputs.is_empty() {
+        let _ = writeln!(s, "inputs differentiated by central differences (no live partials): {}", lm.difference_inputs.join(", "));
+    }
+    if !lm.difference_outputs.is_empty() {
+        let _ = writeln!(s, "outputs differentiated by central differences of the whole model: {}", lm.difference_outputs.join(", "));
+    }
+    if !lm.record_difference_outputs.is_empty() {
+        let _ = writeln!(
+            s,
+            "outputs whose recording block was differentiated alone by central differences (no partials): {}",
+            lm.record_difference_outputs.join(", ")
+        );
     }
     let list = |v: &[linearize::Named]| v.iter().map(|n| format!("{} [{}]", n.name, n.unit)).collect::<Vec<_>>().join(", ");
     let _ = writeln!(s, "states ({}): {}", lm.states.len(), list(&lm.states));

@@ -852,6 +852,17 @@ pub trait Block: BlockClone + std::fmt::Debug + Send + Sync {
     fn partials(&self, _phase: Phase, _ctx: &Ctx, _balances: &Balances, _out: &mut Partials) -> bool {
         false
     }
+    /// Exact partial derivatives of the outputs of `phase` with respect to
+    /// live parameter `name` (one of [`Block::live_parameters`]) at `ctx`,
+    /// one per output row of the phase, written into `out` (zeroed, sized to
+    /// the phase's rows). What an interface input bound to the parameter
+    /// does to the circuit: `solve`'s linearisation seeds it as an extra
+    /// column of the chain rule (∂f/∂u, ∂y/∂u). Returns false if the block
+    /// does not give them for this phase (the default): that input is then
+    /// differentiated by central differences of the whole model.
+    fn live_partials(&self, _name: &str, _phase: Phase, _ctx: &Ctx, _out: &mut [f64]) -> bool {
+        false
+    }
     /// Exact partials of [`Block::quadrature_rates`] (phase
     /// [`Phase::Quadratures`]), which also read the state derivatives
     /// `derivs` ([`In::Rate`]). Returns false by default (differences).

@@ -54,6 +54,13 @@ impl Block for ExternalInput {
             self.value = value;
         }
     }
+    /// The output is the value: ∂out/∂value = 1.
+    fn live_partials(&self, name: &str, phase: Phase, _ctx: &Ctx, out: &mut [f64]) -> bool {
+        if name == VALUE && phase == Phase::Signals {
+            out[0] = 1.0;
+        }
+        name == VALUE
+    }
 }
 
 /// The source of an interface input bound to signal ports, holding `start` (SI).

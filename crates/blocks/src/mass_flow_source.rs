@@ -67,6 +67,26 @@ impl Block for MassFlowSource {
             _ => {}
         }
     }
+    /// ∂/∂mdot of ṁ = −mdot and Ė = −mdot·h (h of the branch `flows`
+    /// takes; at mdot = 0 the delivering side), and ∂Ė/∂T = −mdot·∂h/∂T at
+    /// the node's pressure while delivering (drawn gas carries the node's h).
+    fn live_partials(&self, name: &str, phase: Phase, ctx: &Ctx, out: &mut [f64]) -> bool {
+        if name != "mdot" && name != "T" {
+            return false;
+        }
+        if phase == Phase::Flows {
+            let node = ctx.pneumatic[0];
+            let delivered = ctx.gas.state_pt(node.p, self.t);
+            let h = if self.mdot >= 0.0 { delivered.h } else { node.h };
+            if name == "mdot" {
+                out[0] = -1.0;
+                out[1] = -h;
+            } else if self.mdot > 0.0 {
+                out[1] = -self.mdot * crate::support::GasSlopes::at(ctx.gas, &delivered).dh_dt;
+            }
+        }
+        true
+    }
     /// Exact when the source is shut (a plug: no mass, no energy, whatever
     /// the node does); with a flow the enthalpy's gas-law derivatives are
     /// left to `solve`'s differences (false).

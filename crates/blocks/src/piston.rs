@@ -156,6 +156,13 @@ impl Block for Piston {
             self.external_force = value;
         }
     }
+    /// The applied force is F_ext − p_atm·A_rod: ∂F/∂F_ext = 1.
+    fn live_partials(&self, name: &str, phase: Phase, _ctx: &Ctx, out: &mut [f64]) -> bool {
+        if name == "external_force" && phase == Phase::Forces {
+            out[0] = 1.0;
+        }
+        name == "external_force"
+    }
     fn forces(&self, _ctx: &Ctx, out: &mut [PortForce]) {
         out[0] = PortForce { applied: self.external_force - self.p_atm * self.rod_area, friction: None };
     }

@@ -92,6 +92,19 @@ impl Block for PressureSource {
             _ => {}
         }
     }
+    /// The port's p and T are the parameters (density and enthalpy follow
+    /// through the gas model, as for any effort): unit partials.
+    fn live_partials(&self, name: &str, phase: Phase, _ctx: &Ctx, out: &mut [f64]) -> bool {
+        let row = match name {
+            "p" => 0,
+            "T" => 1,
+            _ => return false,
+        };
+        if phase == Phase::Effort {
+            out[row] = 1.0;
+        }
+        true
+    }
     /// A supply integrates the mass it delivers (for its air consumption); an atmosphere does not.
     fn quadratures(&self) -> &[OutputSpec] {
         if self.name == "atmosphere" {

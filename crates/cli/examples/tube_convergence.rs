@@ -22,7 +22,9 @@
 //! Run: `cargo run --release -p pneumo-cli --example tube_convergence -- out.csv [finest N]`
 //! (the CSV holds the closed-end pressure of every N, for `pneumo plot`).
 //! The time of every run is printed (the Jacobian is dense: the cost grows
-//! quickly with N).
+//! quickly with N). `crates/cli/tests/page_quotes.rs` includes this file to
+//! rerun the cheap rows (N = 2, 5; 10 at air's viscosity) and compare them
+//! with docs/blocks.md.
 
 use std::path::Path;
 
@@ -33,16 +35,16 @@ impl graph::Loader for NoFiles {
     }
 }
 
-const L: f64 = 5.0;
-const P0: f64 = 1e5;
-const DP: f64 = 0.1e5;
+pub const L: f64 = 5.0;
+pub const P0: f64 = 1e5;
+pub const DP: f64 = 0.1e5;
 /// Viscosity of the nearly lossless line, as a fraction of air's. Lower
 /// values make the integration very slow (see the closing note of issue 18):
 /// at 1e-3 of air's a 2-segment line does not finish in minutes.
-const LOW: f64 = 0.1;
+pub const LOW: f64 = 0.1;
 
 /// Closed-end pressure [Pa] on a fixed time grid, for N segments.
-fn run(n: usize, viscosity: f64, t_end: f64, dt: f64) -> Vec<(f64, f64)> {
+pub fn run(n: usize, viscosity: f64, t_end: f64, dt: f64) -> Vec<(f64, f64)> {
     let netlist = serde_json::json!({
         "name": format!("line_{n}"),
         "components": [
@@ -66,7 +68,7 @@ fn run(n: usize, viscosity: f64, t_end: f64, dt: f64) -> Vec<(f64, f64)> {
 
 /// Arrival (first upward crossing of p0 + Δp), return (next downward
 /// crossing) and the mean level of the plateau between 1.5 and 2.5 L/c.
-fn measures(p: &[(f64, f64)], tc: f64) -> (f64, f64, f64) {
+pub fn measures(p: &[(f64, f64)], tc: f64) -> (f64, f64, f64) {
     let level = P0 + DP;
     let cross = |from: f64, up: bool| {
         p.windows(2)
@@ -81,11 +83,20 @@ fn measures(p: &[(f64, f64)], tc: f64) -> (f64, f64, f64) {
     (arrival, back, mean - P0)
 }
 
+/// The wave's travel time along the line, L/c with c = √(γRT) at 20 °C [s].
+pub fn travel_time() -> f64 {
+    L / (1.4f64 * 287.05 * 293.15).sqrt()
+}
+
+/// The run's end time and output interval for the travel time `tc` [s].
+pub fn grid(tc: f64) -> (f64, f64) {
+    (6.0 * tc, tc / 400.0)
+}
+
 fn main() {
     let out = std::env::args().nth(1);
-    let c = (1.4f64 * 287.05 * 293.15).sqrt();
-    let tc = L / c;
-    let (t_end, dt) = (6.0 * tc, tc / 400.0);
+    let tc = travel_time();
+    let (t_end, dt) = grid(tc);
     // the finest line (the viscous reference) is the second argument, 160 by default
     let finest: usize = std::env::args().nth(2).and_then(|a| a.parse().ok()).unwrap_or(160);
     let ns: Vec<usize> = [2usize, 5, 10, 20, 40, 80, 160].into_iter().filter(|&n| n < finest).chain([finest]).collect();

@@ -15,9 +15,14 @@
 //! CI runs `PNEUMO_MUTANTS` (default 60) mutants from a fixed seed; the long
 //! run of docs/reliability.md is
 //! `PNEUMO_MUTANTS=2000 cargo test --release -p pneumo-cli --test mutants -- --nocapture`.
+//! The counts of the default runs (mutants, passed `check`, simulated,
+//! fitted; runs of the extreme-float test) are compared with the CI rows of
+//! docs/reliability.md's tables, so the page states what CI ran. They follow
+//! the shipped models: adding one to `models/` changes them (update the page).
 
 mod common;
 
+use common::quotes::Page;
 use common::{pneumo_in as pneumo, Scratch};
 use serde_json::Value;
 use std::path::Path;
@@ -271,6 +276,7 @@ fn extreme_floats_in_every_numeric_field_end_cleanly() {
     }
     println!("{runs} runs of check with an extreme float");
     assert!(runs > 30, "only {runs} numeric fields found");
+    Page::read("docs/reliability.md").says("--test mutants extreme_floats` |", &[Some(runs as f64)]);
 }
 
 #[test]
@@ -324,6 +330,11 @@ fn seeded_netlist_mutants_end_cleanly() {
         assert!(leftovers.is_empty(), "{what}: left behind {leftovers:?}");
     }
     println!("{n} mutants: {ok_check} passed check, {ok_sim} simulated; every other run ended with one error line");
+    if std::env::var_os("PNEUMO_MUTANTS").is_none() {
+        // the page's CI row: mutants, passed `check`, simulated (panics, hangs and bad lines fail above)
+        let row = "| CI (every `cargo test`) | `cargo test -p pneumo-cli --test mutants` |";
+        Page::read("docs/reliability.md").says(row, &[Some(n as f64), Some(ok_check as f64), Some(ok_sim as f64)]);
+    }
     // the mutator must not be so destructive that nothing gets past the reader
     assert!(n < 20 || ok_check > 0, "no mutant passed check");
 }
@@ -392,4 +403,9 @@ fn seeded_discharge_csv_mutants_end_cleanly() {
         fitted += clean(&out, &format!("csv mutant {k}")) as usize;
     }
     println!("{n} CSV mutants: {fitted} fitted; every other run ended with one error line");
+    if std::env::var_os("PNEUMO_CSV_MUTANTS").is_none() {
+        // the page's CI row of the discharge-record table: mutants, fitted
+        let row = "| CI | `cargo test -p pneumo-cli --test mutants` |";
+        Page::read("docs/reliability.md").says(row, &[Some(n as f64), Some(fitted as f64)]);
+    }
 }

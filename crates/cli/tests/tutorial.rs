@@ -89,6 +89,8 @@ const CHECKED_PAGES: &[(&str, usize)] = &[
     ("docs/position_control_tuning.md", 2),
     ("docs/circuits.md", 4),
     ("docs/linearize.md", 2),
+    ("docs/draw.md", 1),
+    ("docs/netlist.md", 1),
 ];
 
 /// Run a page's blocks — every ```sh block when `every_sh` (the tutorial),

@@ -7,7 +7,8 @@
 //! Every mutant must give a manifest or an error; never a panic. An error is
 //! one line free of control characters (the command prints it as is).
 //! `PNEUMO_MANIFEST_MUTANTS` sets the count (default 300; the long run in
-//! docs/reliability.md uses 20 000).
+//! docs/reliability.md uses 20 000). The default run compares its counts
+//! with that page's CI row.
 
 use serde_json::Value;
 use std::path::Path;
@@ -146,4 +147,16 @@ fn seeded_manifest_mutants_are_read_or_refused_cleanly() {
     }
     println!("{n} manifest mutants: {parsed} parsed, {resolved} resolved; every other one refused with one clean line");
     assert!(n < 50 || resolved > 0, "the mutator never leaves a usable manifest");
+    if std::env::var_os("PNEUMO_MANIFEST_MUTANTS").is_none() {
+        // docs/reliability.md's CI row states these counts (whole numbers: compared exactly)
+        let page = std::fs::read_to_string(root.join("../docs/reliability.md")).expect("docs/reliability.md");
+        let row =
+            page.lines().find(|l| l.starts_with("| CI | `cargo test -p pneumo-identify --test manifest_mutants` |")).expect("the CI row");
+        let counts: Vec<usize> = row.split('|').filter_map(|cell| cell.trim().replace(' ', "").parse().ok()).collect();
+        assert_eq!(
+            counts[..3],
+            [n, parsed, resolved],
+            "docs/reliability.md is stale: its CI row {row:?} should read {n} | {parsed} | {resolved}"
+        );
+    }
 }

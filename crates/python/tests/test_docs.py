@@ -39,7 +39,7 @@ def pieces(line: str) -> list:
     i = 0
     while i < len(line):
         prev = line[i - 1] if i else ""
-        if line[i].isdigit() and not (prev.isalnum() or prev in "._"):
+        if line[i].isascii() and line[i].isdigit() and not (prev.isalnum() or prev in "._"):  # ASCII: not ² or ₁
             m = _NUMBER.match(line, i)
             word = m.group(0).rstrip(".")
             end = i + len(word)
@@ -85,6 +85,26 @@ def mismatch(expected: str, actual: str) -> str | None:
         elif x != y:
             return f"{x!r} vs {y!r}"
     return None
+
+
+def page_says(page: str, phrase: str, values: list) -> None:
+    """Fails unless the numbers the page ``page`` (a path from the repository
+    root) writes after ``phrase`` read as ``values``, in order, by the rule
+    above (``None``: an input or a tolerance, not checked). Words are joined
+    by single spaces, so the phrase may cross a line break. The tests that
+    measure what a page quotes call this (crates/cli/tests/common/quotes.rs
+    is the Rust side)."""
+    text = " ".join((ROOT / page).read_text().split())
+    phrase = " ".join(phrase.split())
+    assert phrase in text, f"{page} lost the words {phrase!r}"
+    rest = " " + text[text.index(phrase) + len(phrase) :]  # a number right after the phrase starts after a space
+    numbers = [p for p in pieces(rest) if isinstance(p, tuple)][: len(values)]
+    assert len(numbers) == len(values), f"{page}: fewer than {len(values)} numbers after {phrase!r}"
+    for (written, word), value in zip(numbers, values):
+        if value is None:
+            continue
+        allowed = half_ulp(word) + 0.005 * abs(written)
+        assert abs(written - value) <= allowed, f"{page} is stale: after {phrase!r} it says {word}, the code gives {value}"
 
 
 class PageChecker(doctest.OutputChecker):

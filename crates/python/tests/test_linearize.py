@@ -13,6 +13,7 @@ import numpy as np
 import pytest
 
 import pneumo
+from test_docs import page_says  # docs/linearize.md quotes what these tests measure
 
 control = pytest.importorskip("control", reason="python-control is not installed (pip install ./crates/python[test] installs it)")
 
@@ -94,8 +95,13 @@ def test_paper_cylinder_natural_frequency_matches_the_pneumatic_spring(paper):
         if p1 == 4e5:
             # the paper's "natural frequency in the order of 10 Hz or less": 13.7 Hz with 1 kg
             assert 13 < lin.frequencies_hz[k] < 14
+            omega_4_bar = (omega, math.sqrt(1.4 * spring_omega2_over_gamma(p1, p2)))
     assert gammas[0] == pytest.approx(gammas[1], rel=1e-9)
     assert gammas[0] == pytest.approx(1.4, rel=1e-4)
+    # "the same γ at both pressures (1.3999024799 at both, 1.4e-12 apart [rounding level,
+    # as measured]; asserted 1e-9)"; "(85.8729 rad/s against 85.8588 at 4 bar)"
+    page_says("docs/linearize.md", "is the same γ at both pressures (", [gammas[0], None, None])
+    page_says("docs/linearize.md", "adiabatic closed form (", [omega_4_bar[0], omega_4_bar[1], None])
 
 
 def test_bode_of_pneumo_linearize_agrees_with_python_control(paper, root, tmp_path, cli):
@@ -118,6 +124,7 @@ def test_bode_of_pneumo_linearize_agrees_with_python_control(paper, root, tmp_pa
     header, data = rows[0], np.array([[float(v) for v in r] for r in rows[1:]])
     f_hz = data[:, 0]
     assert len(f_hz) > 100
+    page_says("docs/linearize.md", "in the same directory, at all", [len(f_hz), 1e3 * f_hz[0], f_hz[-1] / 1e3])
     response = sys.frequency_response(2 * np.pi * f_hz)
     h = fresp(response)  # [output, input, frequency]
     checked = 0

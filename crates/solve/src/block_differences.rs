@@ -2,7 +2,9 @@
 //! phase of one block by central differences over the block's inputs, the
 //! block evaluated alone (never the whole model). Used for a block that does
 //! not give its partials ([`blocks::Block::partials`] returns false); the
-//! summary of a run names such blocks.
+//! summary of a run names such blocks. [`differentiate_record`] does the
+//! same for the values a block records ([`Block::record`], which has no
+//! partials of its own).
 //!
 //! Step: `1e-6·max(|u|, u_floor)` for an input u, with a floor per kind of
 //! input (1e-3 of the state's typical size as the block states it, 1e-3 in
@@ -11,7 +13,7 @@
 //! pressure or temperature at a port is passed as a whole gas state from
 //! the gas model (density and enthalpy follow).
 
-use blocks::block::{Balances, Block, Ctx, In, MechState, Motion, Partials, Phase, PortFlow, PortForce};
+use blocks::block::{Balances, Block, Ctx, In, MechState, Motion, Partials, Phase, PortFlow, PortForce, Shape};
 use gas::GasState;
 
 /// Copies of one block's inputs, perturbed one at a time.
@@ -31,12 +33,56 @@ pub struct Inputs {
     gas_out: Vec<GasState>,
     flows_out: Vec<PortFlow>,
     forces_out: Vec<PortForce>,
+    recorded: Vec<Option<f64>>,
 }
 
 /// Fill `out` (reset for this block and phase) with the central-difference
 /// partials of `phase` of `block` at `ctx`/`balances`.
 /// `derivs` are the block's state derivatives (read by the quadratures only).
 pub fn differentiate(block: &dyn Block, phase: Phase, ctx: &Ctx, balances: &Balances, derivs: &[f64], out: &mut Partials, w: &mut Inputs) {
+    let shape = out.shape();
+    let rows = out.n_rows();
+    columns(block, Some(phase), ctx, balances, derivs, shape, rows, w, &mut |r, col, d| {
+        if d.is_finite() {
+            out.row_mut(r)[col] = d;
+        }
+    });
+}
+
+/// The central-difference partials of `block`'s recorded values
+/// ([`Block::record`]) at `ctx`/`balances`/`derivs` over the block's inputs
+/// (columns of `shape`), row-major into `out` (a row per recorded value); NaN
+/// where a recorded value is undefined at a perturbed input.
+pub fn differentiate_record(
+    block: &dyn Block,
+    ctx: &Ctx,
+    balances: &Balances,
+    derivs: &[f64],
+    shape: Shape,
+    out: &mut Vec<f64>,
+    w: &mut Inputs,
+) {
+    let rows = block.outputs().len();
+    let cols = shape.n_inputs();
+    out.clear();
+    out.resize(rows * cols, 0.0);
+    columns(block, None, ctx, balances, derivs, shape, rows, w, &mut |r, col, d| out[r * cols + col] = d);
+}
+
+/// Central differences of the outputs of `phase` (`None`: the recorded
+/// values) over every input column of `shape`, each passed to `set(row, column, value)`.
+#[allow(clippy::too_many_arguments)]
+fn columns(
+    block: &dyn Block,
+    phase: Option<Phase>,
+    ctx: &Ctx,
+    balances: &Balances,
+    derivs: &[f64],
+    shape: Shape,
+    rows: usize,
+    w: &mut Inputs,
+    set: &mut dyn FnMut(usize, usize, f64),
+) {
     w.states.clear();
     w.states.extend_from_slice(ctx.states);
     w.gas.clear();
@@ -51,8 +97,6 @@ pub fn differentiate(block: &dyn Block, phase: Phase, ctx: &Ctx, balances: &Bala
     w.motion.extend_from_slice(balances.mechanical);
     w.derivs.clear();
     w.derivs.extend_from_slice(derivs);
-    let shape = out.shape();
-    let rows = out.n_rows();
     // the block's own typical sizes of its states
     w.scales.clear();
     w.scales.resize(w.states.len(), 1.0);
@@ -65,7 +109,7 @@ pub fn differentiate(block: &dyn Block, phase: Phase, ctx: &Ctx, balances: &Bala
             _ => floor(input),
         };
         let h = 1e-6 * base.abs().max(typical).max(f64::MIN_POSITIVE);
-        if !reads(phase, input) {
+        if !phase.is_none_or(|phase| reads(phase, input)) {
             continue;
         }
         let mut plus = std::mem::take(&mut w.plus);
@@ -76,10 +120,7 @@ pub fn differentiate(block: &dyn Block, phase: Phase, ctx: &Ctx, balances: &Bala
         evaluate(block, phase, ctx.t, ctx.gas, w, rows, &mut minus);
         write(w, input, base, ctx);
         for r in 0..rows {
-            let d = (plus[r] - minus[r]) / (2.0 * h);
-            if d.is_finite() {
-                out.row_mut(r)[col] = d;
-            }
+            set(r, col, (plus[r] - minus[r]) / (2.0 * h));
         }
         w.plus = plus;
         w.minus = minus;
@@ -139,12 +180,24 @@ fn write(w: &mut Inputs, input: In, v: f64, ctx: &Ctx) {
     }
 }
 
-/// The outputs of `phase` at the inputs in `w`, in the rows of [`Partials`].
-fn evaluate(block: &dyn Block, phase: Phase, t: f64, gas: &dyn gas::GasModel, w: &mut Inputs, rows: usize, out: &mut Vec<f64>) {
+/// The outputs of `phase` (`None`: the recorded values, NaN where
+/// undefined) at the inputs in `w`, in the rows of [`Partials`].
+fn evaluate(block: &dyn Block, phase: Option<Phase>, t: f64, gas: &dyn gas::GasModel, w: &mut Inputs, rows: usize, out: &mut Vec<f64>) {
     out.clear();
     out.resize(rows, 0.0);
     let ctx = Ctx { t, gas, states: &w.states, pneumatic: &w.gas, mechanical: &w.mech, signals: &w.sig };
     let balances = Balances { pneumatic: &w.bal, mechanical: &w.motion };
+    let Some(phase) = phase else {
+        let mut recorded = std::mem::take(&mut w.recorded);
+        recorded.clear();
+        recorded.resize(rows, None);
+        block.record(&ctx, &balances, &w.derivs, &mut recorded);
+        for (o, v) in out.iter_mut().zip(&recorded) {
+            *o = v.unwrap_or(f64::NAN);
+        }
+        w.recorded = recorded;
+        return;
+    };
     match phase {
         Phase::Kinematics => {
             w.mech_out.clear();

@@ -25,11 +25,20 @@
 //! those blocks. The rows of the blocks' own quadratures (statistics no
 //! state reads) chain through the state derivatives they read.
 //!
+//! Parameter columns. [`Exact::set_parameters`] adds a column per live
+//! block parameter (an interface input's value, a supply pressure, an
+//! external force) after the state columns: the block's
+//! [`blocks::Block::live_partials`] seed it wherever the chain reads that
+//! block's outputs, and it propagates like a state column, through the
+//! junction solves too. [`Exact::gradient`] reads the gradient of a state
+//! derivative or a signal over the state and parameter columns (∂f/∂u,
+//! ∂y/∂x, ∂y/∂u of a linearisation).
+//!
 //! What the model reads from the previous evaluation (a signal block reading
 //! a junction node, solved later in the same evaluation) is constant here,
 //! as in [`crate::jacobian::Structure`].
 
-use crate::block_differences::{differentiate, Inputs};
+use crate::block_differences::{differentiate, differentiate_record, Inputs};
 use crate::mechanics;
 use crate::model::{node_mass, Model, ModelError, N_QUADRATURE};
 use blocks::block::{Balances, Ctx, GasRole, In, Partials, Phase, Shape};
@@ -175,6 +184,31 @@ pub struct Exact {
     positions: Vec<u32>,
     /// Work space of the junction clusters' implicit differentiation.
     cluster: ClusterWork,
+    /// Parameter columns (see the module documentation), column
+    /// `n_states + k` for parameter k.
+    parameters: Vec<ParameterColumn>,
+    /// Work space of [`Exact::recorded_gradient`].
+    record_partials: Vec<f64>,
+}
+
+/// A live block parameter differentiated as an extra column.
+#[derive(Debug)]
+struct ParameterColumn {
+    block: usize,
+    name: &'static str,
+    /// Per phase (in [`Phase::ALL`] order): ∂(output row)/∂parameter.
+    rows: Vec<Vec<f64>>,
+    /// Whether the block gave the partials of every phase of the last fill.
+    given: bool,
+}
+
+/// A quantity of the last evaluation whose gradient [`Exact::gradient`] reads.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Quantity {
+    /// The derivative of state (or quadrature) row r.
+    Rate(usize),
+    /// Signal s (a signal output of a block, as recorded).
+    Signal(usize),
 }
 
 /// A (row, column) outside the pattern (see `Exact::positions`).
@@ -216,9 +250,49 @@ impl Exact {
             cluster_rows: Vec::new(),
             inputs: Inputs::default(),
             dropped: 0,
+            parameters: Vec::new(),
+            record_partials: Vec::new(),
         };
         exact.size(model);
         exact
+    }
+
+    /// Add a column per live parameter `(block, name)` after the state
+    /// columns (replacing earlier ones); see the module documentation.
+    pub fn set_parameters(&mut self, model: &Model, parameters: &[(usize, &'static str)]) {
+        self.parameters = parameters
+            .iter()
+            .map(|&(block, name)| ParameterColumn { block, name, rows: vec![Vec::new(); Phase::ALL.len()], given: true })
+            .collect();
+        self.size(model);
+    }
+
+    /// Whether the block of parameter column k gave its partials in the last
+    /// [`Exact::evaluate`] (else that column is incomplete: differentiate
+    /// that parameter otherwise).
+    pub fn parameter_given(&self, k: usize) -> bool {
+        self.parameters[k].given
+    }
+
+    /// Evaluate the model at (t, y) (unless it was just evaluated there) and
+    /// form the gradients of everything it computed, for [`Exact::gradient`].
+    pub fn evaluate(&mut self, model: &mut Model, t: f64, y: &[f64]) -> Result<(), ModelError> {
+        self.dy.resize(model.dim(), 0.0);
+        if !model.last_evaluation_at(t, y, &mut self.dy) {
+            model.eval(t, y, Some(&mut self.dy), None)?;
+        }
+        self.gradients(model, t, y);
+        Ok(())
+    }
+
+    /// The gradient of `q` at the last evaluation over the state columns
+    /// then the parameter columns (dense).
+    pub fn gradient(&self, model: &Model, q: Quantity) -> Vec<f64> {
+        let g = match q {
+            Quantity::Rate(r) => &self.grads.rows[r],
+            Quantity::Signal(s) => &self.grads.sig[s],
+        };
+        self.dense(model, g)
     }
 
     /// The structure of the Jacobian this fills.
@@ -249,9 +323,9 @@ impl Exact {
         self.gradients(model, t, y);
         values.fill(0.0);
         let mut dropped = 0;
-        let ns = self.acc.width;
+        let ns = model.n_states;
         for (r, row) in self.grads.rows.iter().enumerate() {
-            for (j, &v) in row.dense.iter().enumerate() {
+            for (j, &v) in row.dense.iter().enumerate().take(ns) {
                 if v == 0.0 {
                     continue;
                 }
@@ -261,7 +335,7 @@ impl Exact {
                 }
             }
             for &(j, v) in &row.pairs {
-                if v == 0.0 {
+                if v == 0.0 || j >= ns {
                     continue;
                 }
                 match self.pattern.column(j).binary_search(&r) {
@@ -301,45 +375,64 @@ impl Exact {
             differentiate(&**block, phase, &ctx, &full, derivs, d, &mut self.inputs);
             self.fallback[b] = true;
         }
+        for column in self.parameters.iter_mut().filter(|c| c.block == b) {
+            let rows = &mut column.rows[phase_index(phase)];
+            rows.clear();
+            rows.resize(shape.outputs(phase), 0.0);
+            column.given &= block.live_partials(column.name, phase, &ctx, rows);
+        }
     }
 
     /// Sum the chain of block `b`'s partials row `row` of `phase` over its
     /// inputs' gradients into the accumulator.
     fn chain(&mut self, model: &Model, b: usize, phase: Phase, row: usize, skip: Skip) {
-        let slot = &model.slots[b];
         let d = &self.partials[b][phase_index(phase)];
-        let g = &self.grads;
+        chain_row(&mut self.acc, &self.grads, model, b, &self.columns[b], d.row(row), skip);
         let acc = &mut self.acc;
-        for (&input, &v) in self.columns[b].iter().zip(d.row(row)) {
-            if v == 0.0 {
-                continue;
-            }
-            match input {
-                In::State(i) => acc.unit(slot.states.start + i, v),
-                In::P(k) | In::T(k) => {
-                    let node = slot.pneu_nodes[k];
-                    let skipped = match skip {
-                        Skip::Nothing => false,
-                        Skip::JunctionGas => model.circuit.pneumatic_nodes[node].causality == NodeCausality::Junction,
-                        Skip::Cluster(nodes) => nodes.contains(&node),
-                    };
-                    if !skipped {
-                        let which = usize::from(matches!(input, In::T(_)));
-                        acc.add(&g.gas[node][which], v);
-                    }
+        for (k, column) in self.parameters.iter().enumerate() {
+            if column.block == b {
+                let v = column.rows[phase_index(phase)].get(row).copied().unwrap_or(0.0);
+                if v != 0.0 {
+                    acc.unit(model.n_states + k, v);
                 }
-                In::X(k) => acc.add(&g.mech[slot.mech_nodes[k]][0], v),
-                In::V(k) => acc.add(&g.mech[slot.mech_nodes[k]][1], v),
-                In::Signal(k) => acc.add(&g.sig[slot.sig_in[k]], v),
-                In::Mdot(k) | In::Edot(k) => {
-                    let which = usize::from(matches!(input, In::Edot(_)));
-                    let grad = if slot.pneu_is_effort[k] { &g.inflow[slot.pneu_nodes[k]][which] } else { &g.flows[b][k][which] };
-                    acc.add(grad, v);
-                }
-                In::Accel(k) => acc.add(&g.accel[slot.mech_nodes[k]], v),
-                In::Rate(i) => acc.add(&g.rows[slot.states.start + i], v),
             }
         }
+    }
+
+    /// The gradient (as [`Exact::gradient`]) of recorded value `index` of
+    /// block `b` ([`blocks::Block::record`], which has no partials): the
+    /// block's record differentiated alone by central differences over its
+    /// inputs ([`crate::block_differences::differentiate_record`]), chained
+    /// with its inputs' gradients from the last [`Exact::evaluate`] at (t, y)
+    /// (call it before the model is evaluated elsewhere). A recorded value
+    /// that reads a live parameter of its own block directly is not seen
+    /// through the parameter columns. NaN entries where the value is
+    /// undefined nearby.
+    pub fn recorded_gradient(&mut self, model: &Model, t: f64, y: &[f64], b: usize, index: usize) -> Vec<f64> {
+        let slot = &model.slots[b];
+        let block = &model.circuit.instances[b].block;
+        let ctx = model.ctx(b, t, y);
+        let balances = model.balances(b);
+        let mut partials = std::mem::take(&mut self.record_partials);
+        differentiate_record(&**block, &ctx, &balances, &self.dy[slot.states.clone()], self.shapes[b], &mut partials, &mut self.inputs);
+        let cols = self.shapes[b].n_inputs();
+        chain_row(&mut self.acc, &self.grads, model, b, &self.columns[b], &partials[index * cols..(index + 1) * cols], Skip::Nothing);
+        self.record_partials = partials;
+        let mut g = Grad::default();
+        self.acc.take(&mut g);
+        self.dense(model, &g)
+    }
+
+    /// `g` over the state then parameter columns, dense.
+    fn dense(&self, model: &Model, g: &Grad) -> Vec<f64> {
+        let mut out = vec![0.0; model.n_states + self.parameters.len()];
+        for (o, &v) in out.iter_mut().zip(&g.dense) {
+            *o = v;
+        }
+        for &(j, v) in &g.pairs {
+            out[j] += v;
+        }
+        out
     }
 
     fn size(&mut self, model: &Model) {
@@ -357,12 +450,15 @@ impl Exact {
         for (b, slot) in model.slots.iter().enumerate() {
             g.flows[b].resize_with(slot.pneu_nodes.len(), Default::default);
         }
-        self.acc.size(model.n_states);
+        self.acc.size(model.n_states + self.parameters.len());
     }
 
     /// Gradients of every quantity of the last evaluation, in its order.
     fn gradients(&mut self, model: &Model, t: f64, y: &[f64]) {
         self.fallback.fill(false);
+        for column in &mut self.parameters {
+            column.given = true;
+        }
         let c = &model.circuit;
         // 1. kinematics of inertias
         for (node, mn) in c.mechanical_nodes.iter().enumerate() {
@@ -587,6 +683,42 @@ impl Exact {
         }
         work.a = a;
         self.cluster = work;
+    }
+}
+
+/// Sum the chain of one row of block `b`'s partials (one value per input
+/// column `columns`) over its inputs' gradients into `acc`.
+fn chain_row(acc: &mut Acc, g: &Grads, model: &Model, b: usize, columns: &[In], row: &[f64], skip: Skip) {
+    let slot = &model.slots[b];
+    for (&input, &v) in columns.iter().zip(row) {
+        if v == 0.0 {
+            continue;
+        }
+        match input {
+            In::State(i) => acc.unit(slot.states.start + i, v),
+            In::P(k) | In::T(k) => {
+                let node = slot.pneu_nodes[k];
+                let skipped = match skip {
+                    Skip::Nothing => false,
+                    Skip::JunctionGas => model.circuit.pneumatic_nodes[node].causality == NodeCausality::Junction,
+                    Skip::Cluster(nodes) => nodes.contains(&node),
+                };
+                if !skipped {
+                    let which = usize::from(matches!(input, In::T(_)));
+                    acc.add(&g.gas[node][which], v);
+                }
+            }
+            In::X(k) => acc.add(&g.mech[slot.mech_nodes[k]][0], v),
+            In::V(k) => acc.add(&g.mech[slot.mech_nodes[k]][1], v),
+            In::Signal(k) => acc.add(&g.sig[slot.sig_in[k]], v),
+            In::Mdot(k) | In::Edot(k) => {
+                let which = usize::from(matches!(input, In::Edot(_)));
+                let grad = if slot.pneu_is_effort[k] { &g.inflow[slot.pneu_nodes[k]][which] } else { &g.flows[b][k][which] };
+                acc.add(grad, v);
+            }
+            In::Accel(k) => acc.add(&g.accel[slot.mech_nodes[k]], v),
+            In::Rate(i) => acc.add(&g.rows[slot.states.start + i], v),
+        }
     }
 }
 

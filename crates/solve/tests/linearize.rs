@@ -81,7 +81,8 @@ fn closed_cylinder(tau: &str, friction: bool) -> graph::FlatNetlist {
         "connections": connections,
         "interface": {
             "inputs": { "F": { "parameter": "piston.external_force", "unit": "N" } },
-            "outputs": { "x": { "from": "piston.x", "unit": "mm" }, "p_head": { "from": "head.p", "unit": "bar" } }
+            "outputs": { "x": { "from": "piston.x", "unit": "mm" }, "p_head": { "from": "head.p", "unit": "bar" },
+                         "a": { "from": "piston.a", "unit": "m/s2" } }
         },
         "simulation": { "t_end": "0.3 s", "rtol": 1e-10, "atol": 1e-10, "sample_interval": "1 ms", "max_step": "1 ms" }
     }))
@@ -98,7 +99,7 @@ fn linear_at_start(model: &mut Model) -> linearize::LinearModel {
     let opts = Options { keep_all_states: true, outputs: Outputs::Interface, ..Options::default() };
     let lm = linearize::linearize(model, &op, &opts).unwrap_or_else(|e| panic!("linearize: {e}"));
     // the closed-form checks below hold with the exact state Jacobian
-    assert_eq!(lm.method, linearize::jacobians::Method::ExactStates);
+    assert_eq!(lm.method, linearize::jacobians::Method::Exact);
     assert!(lm.finite_difference_blocks.is_empty(), "{:?}", lm.finite_difference_blocks);
     lm
 }
@@ -122,6 +123,11 @@ fn closed_form_omega(n: f64) -> f64 {
     (n / MASS * (a1 * a1 * P_HEAD / v1 + a2 * a2 * P_ROD / v2)).sqrt()
 }
 
+/// docs/linearize.md's section that quotes these tests.
+fn closed_forms_page() -> common::quotes::Page {
+    common::quotes::Page::read("docs/linearize.md").section("## Closed-form checks")
+}
+
 fn gamma(model: &Model) -> f64 {
     let rho = model.circuit.gas.density(P_HEAD, 293.15);
     model.circuit.gas.gamma(rho, 293.15)
@@ -137,6 +143,8 @@ fn adiabatic_closed_cylinder_oscillates_at_the_pneumatic_spring_frequency() {
     let expected = closed_form_omega(gamma(&model));
     let rel = (mode.natural_frequency - expected).abs() / expected;
     eprintln!("adiabatic: ω = {} rad/s, closed form {expected} rad/s, relative difference {rel:.2e}", mode.natural_frequency);
+    // docs/linearize.md's table (its last column, a rounding-level difference, is a measurement)
+    closed_forms_page().says("| τ_T = ∞ (n = γ) | ω =", &[Some(mode.natural_frequency), Some(expected)]);
     assert!(rel < 1e-6, "ω = {} vs {expected} (rel {rel:e})", mode.natural_frequency);
     assert!(mode.damping.abs() < 1e-6, "no friction, no heat exchange: ζ = {}", mode.damping);
     // B: the load enters the acceleration only, as 1/M
@@ -162,6 +170,7 @@ fn isothermal_closed_cylinder_oscillates_at_the_isothermal_spring_frequency() {
     let expected = closed_form_omega(1.0);
     let rel = (mode.natural_frequency - expected).abs() / expected;
     eprintln!("isothermal: ω = {} rad/s, closed form {expected} rad/s, relative difference {rel:.2e}", mode.natural_frequency);
+    closed_forms_page().says("| τ_T = 1e-7 s (n = 1) | ω =", &[Some(mode.natural_frequency), Some(expected)]);
     assert!(rel < 1e-6, "ω = {} vs {expected} (rel {rel:e})", mode.natural_frequency);
 }
 
@@ -176,6 +185,7 @@ fn viscous_friction_damps_as_a_mass_spring_damper() {
     let omega = closed_form_omega(gamma(&model));
     let zeta = c / (2.0 * MASS * omega);
     eprintln!("damping: ζ = {}, predicted {zeta}; ω = {}, predicted {omega}", mode.damping, mode.natural_frequency);
+    closed_forms_page().says("k4 = 0.9 | ζ =", &[Some(mode.damping), None, Some(zeta)]);
     assert!((mode.damping - zeta).abs() < 1e-6 * zeta.max(1e-3), "ζ = {} vs {zeta}", mode.damping);
     assert!((mode.natural_frequency - omega).abs() < 1e-6 * omega);
     assert!(lm.mechanics[0].description.contains("viscous"), "{}", lm.mechanics[0].description);
@@ -216,6 +226,10 @@ fn step_response_matches_the_nonlinear_model_to_second_order_in_the_amplitude() 
     let (e1, s1) = step_error(&flat, 10.0);
     let (e2, s2) = step_error(&flat, 5.0);
     eprintln!("step 10 N: |δx| ≤ {s1:.3e} m, error {e1:.3e} m; step 5 N: |δx| ≤ {s2:.3e} m, error {e2:.3e} m; ratio {:.3}", e1 / e2);
+    // "over 0.3 s: a 10 N load step moves the piston … mm and the largest difference is … m;
+    // a 5 N step, … mm and … m. Halving the amplitude divides the difference by …"
+    let quoted = [None, Some(s1 * 1e3), Some(e1), None, Some(s2 * 1e3), Some(e2), Some(e1 / e2)];
+    closed_forms_page().says("(rtol = atol = 1e-10) over 0.3 s:", &quoted);
     assert!(s1 > 1e-3, "the step moved the piston by only {s1} m");
     assert!(e1 < 0.02 * s1, "the linear model is off by {e1} m of {s1} m");
     let ratio = e1 / e2;
@@ -260,7 +274,7 @@ fn exact_state_jacobian_agrees_with_central_differences_on_the_interface_models(
         let op = linearize::point::at_time(standalone, &mut model, &opts, t).unwrap_or_else(|e| panic!("{file} at {t} s: {e}"));
         let options = Options { keep_all_states: true, ..Options::default() };
         let lm = linearize::linearize(&mut model, &op, &options).unwrap_or_else(|e| panic!("{file}: {e}"));
-        assert_eq!(lm.method, linearize::jacobians::Method::ExactStates, "{file}");
+        assert_eq!(lm.method, linearize::jacobians::Method::Exact, "{file}");
         assert!(lm.finite_difference_blocks.is_empty(), "{file}: {:?}", lm.finite_difference_blocks);
         let n = model.n_states;
         let all: Vec<usize> = (0..n).collect();
@@ -336,4 +350,182 @@ fn exact_state_jacobian_agrees_with_central_differences_on_the_interface_models(
         assert!(worst.0 < 1e-6, "{file}: the column of {} differs by {:e}", worst.1, worst.0);
     }
     assert!(smooth_columns >= 25, "{smooth_columns} smooth columns checked");
+}
+
+/// A supply feeding a tank through two restrictions in series, a
+/// mass-flow source on the junction node between them: the supply's pressure
+/// and temperature and the source's flow and temperature are interface inputs, so the
+/// inputs act through an effort (the supply) and a flow into a junction
+/// solve (its implicit differentiation), and the restriction's recorded flow
+/// feeds through (D ≠ 0).
+fn fed_tank() -> graph::FlatNetlist {
+    common::flat_from_json(&json!({
+        "name": "fed_tank",
+        "gas": { "model": "ideal", "species": "air" },
+        "components": [
+            { "id": "supply", "type": "pressure_source", "params": { "p": "6 bar" } },
+            { "id": "c1", "type": "conductance", "params": { "C": "2 L/min/bar", "b": 0.3 } },
+            { "id": "c2", "type": "conductance", "params": { "C": "1.5 L/min/bar", "b": 0.25 } },
+            { "id": "feed", "type": "mass_flow_source", "params": { "mdot": "0.02 g/s", "T": "310 K" } },
+            { "id": "tank", "type": "chamber", "params": { "dead_volume": "50 cm3", "tau_thermal": "1 s", "p0": "1 bar" } }
+        ],
+        "connections": [["supply.port", "c1.a"], ["c1.b", "c2.a"], ["feed.port", "c2.a"], ["c2.b", "tank.port"]],
+        "interface": {
+            "inputs": {
+                "p_s": { "parameter": "supply.p", "unit": "bar" },
+                "T_s": { "parameter": "supply.T", "unit": "K" },
+                "q": { "parameter": "feed.mdot", "unit": "g/s" },
+                "T_feed": { "parameter": "feed.T", "unit": "K" }
+            },
+            "outputs": {
+                "p": { "from": "tank.p", "unit": "bar" },
+                "T": { "from": "tank.T", "unit": "K" },
+                "rho": { "from": "tank.rho", "unit": "kg/m3" },
+                "mdot": { "from": "c2.mdot", "unit": "g/s" }
+            }
+        },
+        "simulation": { "t_end": "0.5 s", "sample_interval": "1 ms" }
+    }))
+}
+
+/// The largest difference between `exact` and `fd` (rows × columns), each
+/// entry scaled by its column's size and taken relative to the largest
+/// scaled entry of its row over `[fd | fd_other]` (the row's other matrix:
+/// A beside B, C beside D); rows with nothing in them are compared absolutely.
+fn scaled_gap(exact: &linear::Matrix, fd: &linear::Matrix, col_scale: &[f64], row_max: &[f64]) -> f64 {
+    let mut worst = 0.0_f64;
+    for i in 0..fd.rows() {
+        for (j, &s) in col_scale.iter().enumerate() {
+            let gap = ((exact[(i, j)] - fd[(i, j)]) * s).abs();
+            worst = worst.max(if row_max[i] > 0.0 { gap / row_max[i] } else { gap });
+        }
+    }
+    worst
+}
+
+/// Exact B, C, D — the interface inputs seeded through their blocks' live
+/// partials, the outputs read from their signals' gradients, with
+/// implicit differentiation through the junction solves — agree with
+/// central differences of the whole model, on the closed-chamber cylinder,
+/// position_control (at a trim and in mid-run) and the fed tank. Entries are
+/// scaled by their column's size (a state's typical size, max(|u|, one of its unit) for
+/// an input) relative to the row's largest scaled entry, as for A
+/// (central differences are good to ~1e-8 there). The fallbacks are named:
+/// position_control's spool and the fed tank's density and flow are recorded
+/// values without partials (their blocks' records differenced alone and
+/// chained exactly); the closed cylinder's piston acceleration,
+/// recorded by the block whose live parameter (the load) is an input, is
+/// differenced whole.
+#[test]
+fn exact_input_and_output_jacobians_agree_with_central_differences() {
+    enum At {
+        Rest,
+        /// A fraction of the run.
+        Time(f64),
+        /// A trim holding these variables.
+        Trim(&'static [(&'static str, f64)]),
+    }
+    let closed = closed_cylinder("20 ms", true);
+    let position = common::flat_from_model("position_control.json", &[]);
+    // the trim of docs/position_control_tuning.md: the piston sliding about v = 0, both inputs acting
+    let position_mid = common::flat_from_model("position_control.json", &["cyl.x0=100 mm"]);
+    let tank = fed_tank();
+    // (inputs by whole-model differences, outputs likewise, outputs whose block's record is differenced alone)
+    type Fallbacks<'a> = (&'a [&'a str], &'a [&'a str], &'a [&'a str]);
+    let cases: [(&str, &graph::FlatNetlist, At, Fallbacks); 5] = [
+        // the piston's recorded acceleration: its block's live parameter is the input F
+        ("closed cylinder at rest", &closed, At::Rest, (&[], &["a"], &[])),
+        (
+            "position_control trimmed at x = 100 mm",
+            &position_mid,
+            At::Trim(&[("cyl.piston.x", 0.1), ("F_load", 0.0)]),
+            (&[], &[], &["spool"]),
+        ),
+        ("position_control at 0.3 s", &position, At::Time(0.3), (&[], &[], &["spool"])),
+        ("position_control at 0.6 s", &position, At::Time(0.6), (&[], &[], &["spool"])),
+        ("fed tank at 0.1 s", &tank, At::Time(0.1), (&[], &[], &["mdot", "rho"])),
+    ];
+    for (name, flat, at, (difference_inputs, difference_outputs, record_outputs)) in cases {
+        let mut model = driven(flat);
+        let op = match at {
+            At::Rest => OperatingPoint { t: 0.0, y: model.initial_state(), kind: PointKind::Rest, trim: None },
+            At::Time(f) => {
+                let (standalone, opts) = common::model_of(flat);
+                linearize::point::at_time(standalone, &mut model, &opts, f * opts.t_end).unwrap_or_else(|e| panic!("{name}: {e}"))
+            }
+            At::Trim(held) => {
+                let constraints: Vec<linearize::trim::Constraint> = held
+                    .iter()
+                    .map(|&(v, value)| {
+                        let (target, _) = linearize::trim::target(&model, v).unwrap_or_else(|| panic!("{name}: no variable {v}"));
+                        linearize::trim::Constraint { name: v.to_string(), target, value }
+                    })
+                    .collect();
+                let guess = model.initial_state();
+                linearize::trim::trim(&mut model, &guess, &constraints, linearize::Friction::Auto).unwrap_or_else(|e| panic!("{name}: {e}"))
+            }
+        };
+        let lm = linearize::linearize(&mut model, &op, &Options { keep_all_states: true, ..Options::default() })
+            .unwrap_or_else(|e| panic!("{name}: {e}"));
+        assert_eq!(lm.method, linearize::jacobians::Method::Exact, "{name}");
+        assert_eq!(lm.difference_inputs, difference_inputs, "{name}");
+        assert_eq!(lm.difference_outputs, difference_outputs, "{name}");
+        assert_eq!(lm.record_difference_outputs, record_outputs, "{name}");
+        let n = model.n_states;
+        let kept: Vec<usize> = lm.states.iter().map(|s| (0..n).find(|&i| model.state_name(i) == s.name).unwrap()).collect();
+        let (outputs, _) = linearize::output_columns(&model);
+        let columns: Vec<usize> = outputs.iter().map(|o| o.1).collect();
+        let exact = linearize::jacobians::jacobians(&mut model, op.t, &op.y, &kept, &columns).unwrap();
+        let fd = linearize::jacobians::central_differences(&mut model, op.t, &op.y, &kept, &columns).unwrap();
+        // the cost of a call, the least of 20 (printed for docs/linearize.md, never asserted)
+        let mut least = |f: &mut dyn FnMut(&mut Model)| {
+            (0..20)
+                .map(|_| {
+                    let clock = std::time::Instant::now();
+                    f(&mut model);
+                    clock.elapsed()
+                })
+                .min()
+                .unwrap_or_default()
+        };
+        let exact_time = least(&mut |m| drop(linearize::jacobians::jacobians(m, op.t, &op.y, &kept, &columns)));
+        let fd_time = least(&mut |m| drop(linearize::jacobians::central_differences(m, op.t, &op.y, &kept, &columns)));
+        eprintln!("{name}: jacobians {exact_time:?}, central_differences {fd_time:?} (least of 20 calls)");
+        assert_eq!(exact.a.rows(), n);
+        // the linear model carries these matrices (rows of the kept states)
+        for (r, &i) in kept.iter().enumerate() {
+            for k in 0..model.n_inputs() {
+                assert_eq!(lm.b[(r, k)], exact.b[(i, k)], "{name}: B of {} is not the exact one", lm.states[r].name);
+            }
+        }
+        let scales = model.state_scales(&op.y);
+        let x_scale: Vec<f64> = kept.iter().map(|&j| scales[j]).collect();
+        let u_scale: Vec<f64> =
+            (0..model.n_inputs()).map(|k| model.input_value(k).abs().max(linearize::jacobians::input_size(&model, k))).collect();
+        let row_max = |x: &linear::Matrix, u: &linear::Matrix, rows: &[usize]| -> Vec<f64> {
+            rows.iter()
+                .map(|&i| {
+                    let xs = x_scale.iter().enumerate().map(|(j, s)| (x[(i, j)] * s).abs());
+                    let us = u_scale.iter().enumerate().map(|(k, s)| (u[(i, k)] * s).abs());
+                    xs.chain(us).fold(0.0, f64::max)
+                })
+                .collect()
+        };
+        let state_rows: Vec<usize> = (0..n).collect();
+        let out_rows: Vec<usize> = (0..columns.len()).collect();
+        let f_max = row_max(&fd.a, &fd.b, &state_rows);
+        let y_max = row_max(&fd.c, &fd.d, &out_rows);
+        let gaps = [
+            ("B", scaled_gap(&exact.b, &fd.b, &u_scale, &f_max)),
+            ("C", scaled_gap(&exact.c, &fd.c, &x_scale, &y_max)),
+            ("D", scaled_gap(&exact.d, &fd.d, &u_scale, &y_max)),
+        ];
+        eprintln!("{name}: exact against central differences, scaled relative gaps {gaps:?}");
+        for (which, gap) in gaps {
+            assert!(gap < 1e-6, "{name}: {which} differs from central differences by {gap:e}");
+        }
+        // the exact columns are not the differences themselves: some input acts
+        let b_norm: f64 = (0..n).flat_map(|i| (0..model.n_inputs()).map(move |k| (i, k))).map(|(i, k)| exact.b[(i, k)].abs()).sum();
+        assert!(b_norm > 0.0, "{name}: B is zero");
+    }
 }

@@ -111,13 +111,18 @@ fn the_valve_driven_from_outside_by_the_cyclers_schedule_gives_the_cyclers_strok
         (x_prev, v_prev, t_prev) = (x, v, s.t());
     }
     assert_eq!((extend_end.len(), retract_end.len()), (3, 3));
+    let mut worst = 0.0f64;
     for (k, c) in reference.cycles.iter().enumerate() {
         let (extend, retract) = (extend_end[k] - c.start, retract_end[k] - c.retract_start);
-        // issue 26 asks for 0.1 %; measured: at most 1.3e-4 (20 µs of a 0.151 s
-        // retract), the integration error of two step sequences at rtol 1e-4
+        // issue 26 asks for 0.1 %; measured: at most 1.7e-4 relative (docs/fmu.md,
+        // compared below), the integration error of two step sequences at rtol 1e-4
         assert!((extend - c.extend).abs() < 1e-3 * c.extend, "extend {extend} s against the cycler's {} s", c.extend);
         assert!((retract - c.retract).abs() < 1e-3 * c.retract, "retract {retract} s against the cycler's {} s", c.retract);
+        worst = worst.max((extend / c.extend - 1.0).abs()).max((retract / c.retract - 1.0).abs());
     }
+    eprintln!("stroke times from outside: within {worst:.2e} relative of the cycler's");
+    // docs/fmu.md quotes the measured agreement
+    common::quotes::Page::read("docs/fmu.md").says("and retract times agree with the cycler's within", &[Some(worst)]);
 }
 
 #[test]

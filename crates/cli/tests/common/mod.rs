@@ -6,6 +6,7 @@
 #![allow(dead_code)]
 
 pub mod numbers;
+pub mod quotes;
 
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicU64, Ordering};

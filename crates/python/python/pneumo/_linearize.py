@@ -73,7 +73,7 @@ class Linearization:
         self.dx0 = np.array(op["dx0"], dtype=float)
         #: "rest", "time" or "trim".
         self.kind: str = op["kind"]
-        #: How the derivatives were taken ("exact state Jacobian (block partials); ...", "central differences").
+        #: How the derivatives were taken ("exact chain rule (block partials, ...)", "central differences").
         self.method: str = j["method"]
         #: ``{node id: the mode its linear model belongs to}`` (sliding, stuck, on an end stop).
         self.mechanics: Dict[str, str] = {n["id"]: n["mode"] for n in j["mechanics"]}

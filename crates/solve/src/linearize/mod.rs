@@ -133,8 +133,17 @@ pub struct LinearModel {
     pub skipped_outputs: Vec<(String, String)>,
     pub trim: Option<trim::TrimReport>,
     pub method: jacobians::Method,
-    /// Blocks whose part of A came from differences (see [`jacobians::Jacobians`]).
+    /// Blocks differentiated alone by differences (see [`jacobians::Jacobians`]).
     pub finite_difference_blocks: Vec<String>,
+    /// Inputs whose columns of B and D are central differences of the whole
+    /// model (no exact partials for the live parameter they set).
+    pub difference_inputs: Vec<String>,
+    /// Outputs whose rows of C and D are central differences of the whole
+    /// model (see [`jacobians::Jacobians::difference_outputs`]).
+    pub difference_outputs: Vec<String>,
+    /// Outputs recorded by a block without partials for them, whose record
+    /// was differentiated alone by central differences and chained exactly.
+    pub record_difference_outputs: Vec<String>,
 }
 
 /// Why no linear model could be made.
@@ -240,11 +249,11 @@ pub fn set_modes(model: &mut Model, t: f64, y: &[f64], kind: PointKind, friction
 }
 
 /// Outputs with their recorded columns, and those left out with the reason.
-pub(crate) type OutputColumns = (Vec<(Named, usize)>, Vec<(String, String)>);
+pub type OutputColumns = (Vec<(Named, usize)>, Vec<(String, String)>);
 
 /// The recorded columns of the outputs, with names and SI units; the
 /// interface outputs that cannot be in a linear model, with the reason.
-pub(crate) fn output_columns(model: &Model) -> OutputColumns {
+pub fn output_columns(model: &Model) -> OutputColumns {
     let units = model.output_units();
     let mut cols = Vec::new();
     let mut skipped = Vec::new();
@@ -371,13 +380,18 @@ pub fn linearize(model: &mut Model, op: &OperatingPoint, opts: &Options) -> Resu
         (j.c.select(&rows, &kept), j.d.clone(), outputs.iter().map(|o| o.0.clone()).collect(), y0_all)
     };
     let f = jacobians::rates(model, t, y)?;
+    let inputs = input_names(model);
+    let difference_inputs = j.difference_inputs.iter().map(|&k| inputs[k].name.clone()).collect();
+    let names = |list: &[usize]| list.iter().map(|&i| outputs[i].0.name.clone()).collect();
+    let difference_outputs = names(&j.difference_outputs);
+    let record_difference_outputs = names(&j.record_difference_outputs);
     Ok(LinearModel {
         a,
         b,
         c,
         d,
         states,
-        inputs: input_names(model),
+        inputs,
         outputs: out_named,
         x0: kept.iter().map(|&i| y[i]).collect(),
         u0: (0..m).map(|k| model.input_value(k)).collect(),
@@ -391,5 +405,8 @@ pub fn linearize(model: &mut Model, op: &OperatingPoint, opts: &Options) -> Resu
         trim: op.trim.clone(),
         method: j.method,
         finite_difference_blocks: j.finite_difference_blocks,
+        difference_inputs,
+        difference_outputs,
+        record_difference_outputs,
     })
 }

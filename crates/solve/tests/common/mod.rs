@@ -40,6 +40,19 @@ pub fn models_dir() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("../../models")
 }
 
+/// The repository root (the documentation pages' paths start there).
+pub fn repo() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../..")
+}
+
+/// The pages' number rule and quote finder, one copy shared with the
+/// command line's docs checks: a test compares the figures a page quotes
+/// with what it computes (`quotes::Page::says`).
+#[path = "../../../cli/tests/common/numbers.rs"]
+pub mod numbers;
+#[path = "../../../cli/tests/common/quotes.rs"]
+pub mod quotes;
+
 /// Parse and flatten an inline netlist (no subsystem files).
 pub fn flat_from_json(netlist: &serde_json::Value) -> FlatNetlist {
     let text = serde_json::to_string_pretty(netlist).expect("a json! value always serialises");
