@@ -75,8 +75,11 @@ pub const SPARSE_LU_MIN_STATES: usize = 40;
 struct SparseJacobian {
     pattern: Sparsity,
     values: Vec<f64>,
-    /// Column groups for finite differences (used when the system does not fill the values itself).
-    groups: Vec<Vec<usize>>,
+    /// Column groups for finite differences, found at the first Jacobian the
+    /// system does not fill itself (a system that always fills it never pays
+    /// for the colouring, whose cost grows with the columns times the longest
+    /// row: quadratically with a row that every column touches).
+    groups: Option<Vec<Vec<usize>>>,
     /// (row, column, entry) of the entries in quadrature rows.
     quadrature: Vec<(usize, usize, usize)>,
     /// Perturbation of each state column.
@@ -96,7 +99,7 @@ impl SparseJacobian {
             }
         }
         let lu = if ns >= SPARSE_LU_MIN_STATES { SparseLu::new(&pattern, ns) } else { None };
-        SparseJacobian { values: vec![0.0; pattern.nnz()], groups: pattern.column_groups(), quadrature, deltas: vec![0.0; ns], lu, pattern }
+        SparseJacobian { values: vec![0.0; pattern.nnz()], groups: None, quadrature, deltas: vec![0.0; ns], lu, pattern }
     }
 }
 
@@ -567,7 +570,8 @@ impl Rosenbrock {
 
     fn grouped_differences(&mut self, sys: &mut dyn OdeSystem, t: f64, y: &[f64], sp: &mut SparseJacobian) -> Result<(), IntegratorError> {
         self.ytmp.copy_from_slice(y);
-        for group in &sp.groups {
+        let groups = sp.groups.get_or_insert_with(|| sp.pattern.column_groups());
+        for group in groups.iter() {
             let mut bad = 0;
             let mut ok = false;
             for sign in [1.0, -1.0] {

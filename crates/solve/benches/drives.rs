@@ -9,6 +9,11 @@
 //! instants, as on a real machine); from n = 8 the same circuit with all
 //! drives alike (switching together) is run as well, to separate the cost of
 //! the linear algebra from the cost of the events.
+//! The group `drives_large` runs n = 128 and 256 for 6 s (staggered and in
+//! step, structured only; about four minutes): `cargo bench -p pneumo-solve
+//! --bench drives -- drives_large`, the other sizes with `-- drives/`.
+//! The 6 s runs of the issue, with the integrator's counts, come from the
+//! example `drives_scaling` (see docs/performance.md).
 //! docs/performance.md lists the medians and the fitted exponent k of
 //! time ∝ n^k. Run: `cargo bench -p pneumo-solve --bench drives`.
 
@@ -48,6 +53,29 @@ fn bench(c: &mut Criterion) {
                         let r = solve::simulate(&mut model, &opts).expect("simulates");
                         r.t_final
                     },
+                    BatchSize::SmallInput,
+                )
+            });
+        }
+    }
+    group.finish();
+
+    // hundreds of drives, 6 s simulated as in the issue (in 3 s, 256 drives
+    // on this supply have not ended their first stroke, staggered or not):
+    // 10 runs of a few seconds each, so no warm-up beyond one run
+    let mut group = c.benchmark_group("drives_large");
+    group.sample_size(10).warm_up_time(std::time::Duration::from_millis(1)).measurement_time(std::time::Duration::from_secs(1));
+    for n in [128usize, 256] {
+        group.throughput(Throughput::Elements(n as u64));
+        for (staggered, label) in [(true, "structured"), (false, "structured_in_step")] {
+            group.bench_function(format!("{label}_{n}"), |b| {
+                b.iter_batched(
+                    || {
+                        let (model, mut opts) = build(n, true, staggered);
+                        opts.t_end = 6.0;
+                        (model, opts)
+                    },
+                    |(mut model, opts)| solve::simulate(&mut model, &opts).expect("simulates").t_final,
                     BatchSize::SmallInput,
                 )
             });

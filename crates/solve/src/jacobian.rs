@@ -33,9 +33,14 @@
 //!
 //! Quantities read from the previous evaluation (a signal block reading a
 //! junction node, solved later in the same evaluation) are not dependencies
-//! here, as they are not in the evaluation itself; after each perturbed
-//! evaluation the block buffers are restored to the base evaluation, so every
-//! perturbed evaluation reads the same previous values.
+//! here, as they are not in the evaluation itself. A perturbed evaluation's
+//! values are read from the model's block buffers, where it left them (an
+//! evaluation writes every buffer before it reads it; an effort is handed its
+//! block's gas and signal buffers too, but reads only its states and
+//! mechanical ports, as the structure above assumes), and the buffers of the
+//! base evaluation are put back once, after the last group: two copies of
+//! every block's buffers per Jacobian rather than two per group, which with
+//! hundreds of drives was memory traffic that outgrew the caches.
 
 use crate::model::{Model, ModelError, Slot, WarmStart};
 use blocks::block::{Balances, Ctx, Exchange, MechState, Motion, PortFlow};
@@ -62,6 +67,26 @@ struct Reach {
     own_flow: bool,
     /// Changes of the inflow at the block's effort ports: (port k, restriction block, its port).
     inflow: Vec<(usize, usize, usize)>,
+    /// Where the column's entries in the block's rows are in the Jacobian's
+    /// values: its first state row, its first quadrature row (its other rows
+    /// follow them: a block's rows are consecutive) and the four balance rows
+    /// (`ABSENT` where the column has no such row), found once so that
+    /// filling a column searches nothing.
+    states_at: usize,
+    quad_at: usize,
+    balance_at: [usize; 4],
+}
+
+/// Position of a row the column does not have.
+const ABSENT: usize = usize::MAX;
+
+/// Position of the i-th of consecutive rows that start at position `first`.
+fn nth(first: usize, i: usize) -> usize {
+    if first == ABSENT {
+        ABSENT
+    } else {
+        first + i
+    }
 }
 
 /// The structure of the model's Jacobian (see the module documentation).
@@ -212,7 +237,7 @@ impl Structure {
                 }
             }
         }
-        let reach: Vec<Vec<Reach>> = reach.into_iter().map(|m| m.into_values().collect()).collect();
+        let mut reach: Vec<Vec<Reach>> = reach.into_iter().map(|m| m.into_values().collect()).collect();
 
         // rows of each column: the reached blocks' states and quadratures, and the balances
         let balance = model.n_states + model.n_block_quadratures;
@@ -238,6 +263,16 @@ impl Structure {
             })
             .collect();
         let pattern = Sparsity::from_columns(model.dim(), &columns).ok()?;
+        for (j, rs) in reach.iter_mut().enumerate() {
+            let (range, rows) = (pattern.column_range(j), pattern.column(j));
+            let at = |row: usize| rows.binary_search(&row).map_or(ABSENT, |p| range.start + p);
+            for r in rs {
+                let s = &slots[r.block];
+                r.states_at = at(s.states.start);
+                r.quad_at = at(s.quad.start);
+                r.balance_at = [at(balance), at(balance + 1), at(balance + 2), at(balance + 3)];
+            }
+        }
         Some(Structure { groups, reach, pattern })
     }
 
@@ -320,8 +355,8 @@ impl Structure {
                     Err(e) => return Err(e),
                 }
             }
-            work.pert.take(&model.slots);
-            work.base.restore(&mut model.slots);
+            // the perturbed evaluation is read where it left its values, in
+            // the model's block buffers (restored once, after the last group)
             for &j in group {
                 let dj = work.yp[j] - y[j];
                 for r in &self.reach[j] {
@@ -338,8 +373,8 @@ impl Structure {
     fn column_entries(&self, model: &Model, work: &mut Workspace, t: f64, y: &[f64], j: usize, dj: f64, r: &Reach, values: &mut [f64]) {
         let b = r.block;
         let slot = &model.slots[b];
-        let Workspace { base, pert, dy_base, ex_base, scratch: w, .. } = work;
-        let (bs, ps) = (&base.blocks[b], &pert.blocks[b]);
+        let Workspace { base, dy_base, ex_base, scratch: w, .. } = work;
+        let (bs, ps) = (&base.blocks[b], &model.slots[b]);
         let pick = |mask: u64, k: usize| mask & (1 << k) != 0;
         w.states.clear();
         w.states.extend_from_slice(&y[slot.states.clone()]);
@@ -362,22 +397,19 @@ impl Structure {
         }
         for &(k, f, fk) in &r.inflow {
             // the node's inflow is minus the restrictions' flows into themselves
-            w.bal[k] += -difference(pert.blocks[f].flows[fk], base.blocks[f].flows[fk]);
+            w.bal[k] += -difference(model.slots[f].flows[fk], base.blocks[f].flows[fk]);
         }
-        let column = self.pattern.column_range(j);
-        let rows = self.pattern.column(j);
-        let mut put = |row: usize, v: f64| {
-            if let Ok(p) = rows.binary_search(&row) {
-                values[column.start + p] += v;
+        let mut put = |at: usize, v: f64| {
+            if at != ABSENT {
+                values[at] += v;
             }
         };
-        let balance = model.n_states + model.n_block_quadratures;
         if slot.states.is_empty() {
             // a boundary: what it passes into the circuit
             for k in 0..w.bal.len() {
                 let d_in = difference(w.bal[k], bs.bal_flow[k]);
-                put(balance, -d_in.mdot / dj);
-                put(balance + 1, -d_in.edot / dj);
+                put(r.balance_at[0], -d_in.mdot / dj);
+                put(r.balance_at[1], -d_in.edot / dj);
             }
             if slot.quad.is_empty() {
                 return;
@@ -392,22 +424,22 @@ impl Structure {
             block.derivatives(&ctx, &balances, &mut w.out);
         }
         for (i, row) in slot.states.clone().enumerate() {
-            put(row, (w.out[i] - dy_base[row]) / dj);
+            put(nth(r.states_at, i), (w.out[i] - dy_base[row]) / dj);
         }
         if !slot.quad.is_empty() {
             w.qout.clear();
             w.qout.resize(slot.quad.len(), 0.0);
             block.quadrature_rates(&ctx, &balances, &w.out, &mut w.qout);
             for (i, row) in slot.quad.clone().enumerate() {
-                put(row, (w.qout[i] - dy_base[row]) / dj);
+                put(nth(r.quad_at, i), (w.qout[i] - dy_base[row]) / dj);
             }
         }
         if slot.states.is_empty() {
             return; // a boundary exchanges no heat or work (its base was not taken)
         }
         let ex = block.exchange(&ctx, &balances);
-        put(balance + 2, (ex.heat - ex_base[b].heat) / dj);
-        put(balance + 3, (ex.work - ex_base[b].work) / dj);
+        put(r.balance_at[2], (ex.heat - ex_base[b].heat) / dj);
+        put(r.balance_at[3], (ex.work - ex_base[b].work) / dj);
     }
 }
 
@@ -416,7 +448,6 @@ impl Structure {
 #[derive(Debug, Default)]
 pub struct Workspace {
     base: Snapshot,
-    pert: Snapshot,
     dy_base: Vec<f64>,
     dy: Vec<f64>,
     yp: Vec<f64>,
@@ -448,7 +479,6 @@ impl Workspace {
             self.yp = vec![0.0; n];
             self.ex_base = vec![Exchange::default(); model.slots.len()];
             self.base = Snapshot::shaped(&model.slots);
-            self.pert = Snapshot::shaped(&model.slots);
         }
     }
 }
@@ -518,7 +548,7 @@ impl Snapshot {
 
 /// The record of state j reaching block b, created on first use.
 fn entry(reach: &mut [BTreeMap<usize, Reach>], j: usize, b: usize) -> &mut Reach {
-    reach[j].entry(b).or_insert_with(|| Reach { block: b, ..Reach::default() })
+    reach[j].entry(b).or_insert_with(|| Reach { block: b, states_at: ABSENT, quad_at: ABSENT, balance_at: [ABSENT; 4], ..Reach::default() })
 }
 
 /// a − b.

@@ -92,6 +92,8 @@ pub struct Model {
     pub(crate) junction_slope: Vec<f64>,
     /// Number of right-hand-side evaluations.
     pub evaluations: u64,
+    /// Number of those evaluations that computed the root functions.
+    pub root_evaluations: u64,
     /// Evaluate signals as at rest before t = 0 (see [`crate::rest`]).
     pub(crate) at_rest: bool,
     /// Derivative and warm-start buffers reused by [`Model::record`].
@@ -246,6 +248,7 @@ impl Model {
             junction_step: vec![0.0; n_nodes],
             junction_slope: vec![f64::NAN; n_nodes],
             evaluations: 0,
+            root_evaluations: 0,
             at_rest: false,
             record_scratch: Default::default(),
             input_values: circuit.interface.inputs.iter().map(|i| i.start).collect(),
@@ -315,12 +318,12 @@ impl Model {
         let guess = self.junction_guess.clone();
         let step = self.junction_step.clone();
         let slope = self.junction_slope.clone();
-        let evaluations = self.evaluations;
+        let (evaluations, root_evaluations) = (self.evaluations, self.root_evaluations);
         let r = self.eval(t, y, dy, g);
         self.junction_guess = guess;
         self.junction_step = step;
         self.junction_slope = slope;
-        self.evaluations = evaluations;
+        (self.evaluations, self.root_evaluations) = (evaluations, root_evaluations);
         r
     }
 
@@ -425,6 +428,7 @@ impl Model {
         last: &mut LastEvaluation,
     ) -> Result<(), ModelError> {
         self.evaluations += 1;
+        self.root_evaluations += u64::from(g.is_some());
         let gas = self.gas.clone();
         let gas: &dyn GasModel = &*gas;
         let Model {

@@ -18,6 +18,13 @@ impl graph::Loader for Files {
 /// step (every drive's events at its own instants), otherwise all drives are
 /// alike and switch together.
 pub fn drives(n: usize, staggered: bool) -> graph::FlatNetlist {
+    drives_with_strokes(n, |i| if staggered { 450.0 - 20.0 * (i % 8) as f64 } else { 450.0 })
+}
+
+/// `n` drives as in [`drives`], drive `i` with a stroke of `stroke_mm(i)` mm
+/// (the example `drives_scaling` gives every drive its own).
+#[allow(dead_code)] // not every target that includes this file uses it
+pub fn drives_with_strokes(n: usize, stroke_mm: impl Fn(usize) -> f64) -> graph::FlatNetlist {
     let cylinder = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../models/lib/cylinder.json");
     let mut components = vec![
         json!({"id": "supply", "type": "pressure_source", "params": {"p": "6 bar", "T": "292 K"}}),
@@ -28,7 +35,7 @@ pub fn drives(n: usize, staggered: bool) -> graph::FlatNetlist {
     let mut connections = vec![json!(["supply.port", "line.a"]), json!(["line.b", "manifold.port"])];
     for i in 0..n {
         let d = format!("d{i}");
-        let stroke = format!("{} mm", if staggered { 450 - 20 * (i % 8) } else { 450 });
+        let stroke = format!("{} mm", stroke_mm(i));
         components.extend([
             json!({"id": format!("{d}_dcv"), "type": "valve_5_2", "params": {"C": "490 L/min/bar", "b": 0.3}}),
             json!({"id": format!("{d}_fc"), "type": "speed_control_valve",
