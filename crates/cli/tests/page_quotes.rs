@@ -112,3 +112,44 @@ fn linearize_md_quotes_the_tuning_page_s_checked_mode() {
     let mode = outputs.iter().find(|l| l.contains(" ± ")).map(|l| numbers(l)).expect("the tuning page's oscillating mode");
     Page::read("docs/linearize.md").says("compares its", &[Some(mode[4])]);
 }
+
+#[test]
+fn position_control_tuning_md_s_linear_model_prose_is_what_linearize_gives() {
+    // the page's first command, with --json: the trimmed operating point and its modes
+    let out = common::pneumo_in(
+        &common::repo(),
+        &["linearize", "models/position_control.json", "--set", "cyl.x0=100 mm", "--at", "cyl.piston.x=100 mm; F_load=0 N", "--json"],
+    );
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let json: serde_json::Value = serde_json::from_slice(&out.stdout).expect("linearize --json");
+    let outputs: Vec<&str> = json["outputs"].as_array().unwrap().iter().map(|o| o["name"].as_str().unwrap()).collect();
+    let y0 = |name: &str| json["operating_point"]["y0"][outputs.iter().position(|o| *o == name).unwrap()].as_f64().unwrap();
+    let modes = json["modes"].as_array().unwrap();
+    let real_lags: Vec<f64> =
+        modes.iter().filter(|m| m["pair"] == false && m["re"].as_f64().unwrap() < 0.0).map(|m| -m["re"].as_f64().unwrap()).collect();
+    let slow: Vec<f64> = real_lags.iter().copied().filter(|r| *r < 1.0).collect();
+    let hz = |lo: f64, hi: f64| {
+        modes
+            .iter()
+            .map(|m| m["frequency_hz"].as_f64().unwrap())
+            .find(|f| (lo..hi).contains(f))
+            .unwrap_or_else(|| panic!("no mode in {lo}..{hi} Hz"))
+    };
+    let sensor = real_lags.iter().fold(0.0f64, |a, b| a.max(*b)) / (2.0 * PI);
+    let oscillating = modes.iter().find(|m| (10.0..30.0).contains(&m["frequency_hz"].as_f64().unwrap())).expect("gas-spring mode");
+    let pair = json["pairs"].as_array().unwrap().iter().find(|p| p["output"] == "v" && p["input"] == "u").expect("v/u");
+
+    let page = Page::read("docs/position_control_tuning.md");
+    // "u₀ = −0.00148" (− is typographic: the page's number reads positive); u is the first input
+    assert_eq!(json["inputs"][0]["name"], "u");
+    page.says("The trimmed valve command is u₀ =", &[Some(-json["operating_point"]["u0"][0].as_f64().unwrap())]);
+    page.says("the head is at", &[Some(y0("p_head") / 1e5), Some(y0("p_rod") / 1e5)]);
+    page.says("The slow modes (", &[Some(slow[0]), Some(*slow.last().unwrap())]);
+    assert_eq!(slow.len(), 3, "three slow lags: {slow:?}");
+    page.says("the spool's own mode is at", &[Some(hz(30.0, 100.0)), Some(sensor)]);
+    page.says("DC gain of v/u", &[Some(pair["dc_gain"].as_f64().unwrap())]);
+    page.says(
+        "per unit command) times the",
+        &[Some(oscillating["frequency_hz"].as_f64().unwrap()), Some(oscillating["damping"].as_f64().unwrap())],
+    );
+}
