@@ -125,11 +125,11 @@ pub fn recorded(model: &mut Model, t: f64, y: &[f64], columns: &[usize]) -> Resu
 
 /// The block that records a recorded column, the column's index among its
 /// recorded values, and the number of them that are its signal outputs (they
-/// come first).
-fn recorder(model: &Model, column: usize) -> (usize, usize, usize) {
-    let b = model.slots.iter().position(|s| s.outputs.contains(&column)).unwrap_or(0);
+/// come first); None for a column no block records.
+fn recorder(model: &Model, column: usize) -> Option<(usize, usize, usize)> {
+    let b = model.slots.iter().position(|s| s.outputs.contains(&column))?;
     let slot = &model.slots[b];
-    (b, column - slot.outputs.start, slot.sig_out.len())
+    Some((b, column - slot.outputs.start, slot.sig_out.len()))
 }
 
 /// Derivatives at (t, y) and the model's current input values, for the
@@ -182,7 +182,11 @@ pub fn jacobians(model: &mut Model, t: f64, y: &[f64], columns: &[usize], output
     }
     let (mut difference_outputs, mut record_difference_outputs) = (Vec::new(), Vec::new());
     for (i, &column) in outputs.iter().enumerate() {
-        let (block, k, n_signals) = recorder(model, column);
+        // a column no block records (none today) takes the whole-model fallback
+        let Some((block, k, n_signals)) = recorder(model, column) else {
+            difference_outputs.push(i);
+            continue;
+        };
         if k < n_signals {
             fill(&exact.gradient(model, Quantity::Signal(model.slots[block].sig_out.start + k)), i, &mut c, &mut d);
             continue;
