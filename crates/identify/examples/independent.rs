@@ -103,6 +103,10 @@ fn main() -> Result<(), String> {
     if let Some(x) = std::env::var("SKEW").ok().and_then(|s| s.parse().ok()) {
         options.sensors.skew = x;
     }
+    // RECENTRE=1 turns the recentred starts on (Options::recentre)
+    if std::env::var("RECENTRE").is_ok() {
+        options.recentre = true;
+    }
     if std::env::var("NOGAIN").is_ok() {
         options.sensors.gain = false;
     }

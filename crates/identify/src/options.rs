@@ -124,6 +124,14 @@ pub struct Options {
     /// candidate must beat a generic per-phase correction with as many
     /// parameters fitted on the same data. On by default.
     pub sham: bool,
+    /// Recentred starts ([`crate::candidates::recentred`]): every
+    /// candidate is also started with the calibration's form parameters
+    /// (those with a prior) back at their prior centres, and each round's
+    /// current model is refitted from there too, the lower penalised cost
+    /// kept. Off by default: it did not rescue the case it was built for
+    /// (varied valve_delay seed 2, docs/discrepancy.md) and costs one more
+    /// short-record fit per candidate and round.
+    pub recentre: bool,
     pub progress: Progress,
 }
 
@@ -153,6 +161,7 @@ impl Default for Options {
             screen_prepare: 0,
             switch_latency: 1e-3,
             sham: true,
+            recentre: false,
             progress: Progress::default(),
         }
     }

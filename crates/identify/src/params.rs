@@ -6,7 +6,9 @@
 //! # Fit coordinates
 //! Each parameter is fitted in a scaled coordinate u so that all are O(1):
 //! linear u = θ/θ_typ, or logarithmic u = ln(θ/θ_typ) for strictly positive
-//! quantities known only to a factor (conductances, friction levels).
+//! quantities known only to a factor (conductances, friction levels), or
+//! u = −ln((1 − θ)/(1 − θ_start)) (increasing in θ) for a ratio below 1 known by its distance
+//! from 1 (an ISO 6358 laminar ratio `b_lam`).
 //! Calibration parameters that the experiments set to different values
 //! (e.g. one throttle setting per experiment) are fitted once per distinct
 //! setting, each applying to the experiments with that setting.
@@ -56,7 +58,7 @@ pub struct FitParam {
 }
 
 /// A Gaussian prior of a parameter: θ ~ N(center, sd²) on a linear
-/// coordinate, ln θ ~ N(ln center, (sd/center)²) on a logarithmic one
+/// coordinate (and on a [`Scale::LogGap`] one: the prior is on θ itself), ln θ ~ N(ln center, (sd/center)²) on a logarithmic one
 /// (`sd` is then the relative spread at the center). SI.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Prior {
@@ -70,6 +72,7 @@ impl FitParam {
         match self.scale {
             Scale::Linear => v / self.typical,
             Scale::Log => (v / self.typical).ln(),
+            Scale::LogGap => (self.typical / (1.0 - v).max(f64::MIN_POSITIVE)).ln(),
         }
     }
     /// SI value of a fit coordinate.
@@ -77,6 +80,7 @@ impl FitParam {
         match self.scale {
             Scale::Linear => u * self.typical,
             Scale::Log => self.typical * u.exp(),
+            Scale::LogGap => 1.0 - self.typical * (-u).exp(),
         }
     }
     /// Whether this is an effect parameter.
@@ -87,7 +91,7 @@ impl FitParam {
     pub fn prior_row(&self, v: f64) -> Option<f64> {
         let p = self.prior?;
         Some(match self.scale {
-            Scale::Linear => (v - p.center) / p.sd,
+            Scale::Linear | Scale::LogGap => (v - p.center) / p.sd,
             Scale::Log => (v.max(f64::MIN_POSITIVE) / p.center).ln() / (p.sd / p.center),
         })
     }
@@ -119,6 +123,15 @@ pub const SUBSONIC_INDEX_BOUNDS: (f64, f64) = (0.25, 0.85);
 /// (speed-control valves are catalogued at 0.1 … 0.5 bar, or "free flow").
 pub const CRACKING_SD: f64 = 0.2e5;
 pub const CRACKING_MAX: f64 = 1.0e5;
+/// Prior σ of an ISO 6358 restriction's laminar pressure ratio `b_lam`
+/// around the netlist's value, and its bounds. The laminar end of the
+/// characteristic is not given by catalogues; MathWorks' Simscape ISO 6358
+/// orifice documents it as "a value between 0.999 and 0.995" (its default
+/// 0.999, ours too), so σ is that range's width halved and the bounds
+/// widen it by its width on either side; a restriction measured without a
+/// laminar end sits near the upper bound.
+pub const LAMINAR_RATIO_SD: f64 = 0.002;
+pub const LAMINAR_RATIO_BOUNDS: (f64, f64) = (0.99, 0.9999);
 
 /// The default calibration set of a cylinder circuit (docs/discrepancy.md
 /// gives the reasons):
@@ -128,8 +141,10 @@ pub const CRACKING_MAX: f64 = 1.0e5;
 /// - the form parameters an engineer never knows exactly, with priors
 ///   around the netlist's value: the ISO 6358 subsonic index m of every
 ///   throttle and of the directional valve (σ 0.1, [`SUBSONIC_INDEX_SD`]),
-///   and the cracking pressure of every throttle's check valve (σ 0.2 bar,
-///   [`CRACKING_SD`], in [0, 1 bar]).
+///   the cracking pressure of every throttle's check valve (σ 0.2 bar,
+///   [`CRACKING_SD`], in [0, 1 bar]), and the laminar pressure ratio
+///   `b_lam` of every throttle and of the directional valve (σ 0.002,
+///   [`LAMINAR_RATIO_SD`]).
 ///
 /// Parameters that are zero in the netlist are skipped where they need a
 /// scale (k0, k2, C).
@@ -158,6 +173,12 @@ pub fn default_calibration(flat: &FlatNetlist) -> Vec<CalibSpec> {
             prior: Some(Prior { center: v.clamp(SUBSONIC_INDEX_BOUNDS.0, SUBSONIC_INDEX_BOUNDS.1), sd: SUBSONIC_INDEX_SD }),
         })
     };
+    let laminar = |id: &str| -> Option<CalibSpec> {
+        let target = format!("{id}.b_lam");
+        let v = value(&target)?;
+        let (lo, hi) = LAMINAR_RATIO_BOUNDS;
+        Some(CalibSpec { target, bounds: Some((lo.min(v), hi.max(v))), prior: Some(Prior { center: v, sd: LAMINAR_RATIO_SD }) })
+    };
     for t in &topo.throttles {
         out.extend(index(t));
         let target = format!("{t}.cracking_pressure");
@@ -167,6 +188,9 @@ pub fn default_calibration(flat: &FlatNetlist) -> Vec<CalibSpec> {
     }
     if let Some(v) = &topo.valve {
         out.extend(index(v));
+    }
+    for id in topo.throttles.iter().chain(&topo.valve) {
+        out.extend(laminar(id));
     }
     // a vessel test (no cylinder): every restriction's C, and its b and m with priors
     if topo.piston.is_none() && !topo.vessels.is_empty() {
@@ -271,8 +295,14 @@ pub fn calibration_params(flat: &FlatNetlist, experiments: &[Experiment], specs:
                 return Err(format!("calibrate {}: bounds [{lo}, {hi}] are not an interval", spec.target));
             }
             let start = v.clamp(lo, hi);
-            let (scale, typical) =
-                if lo > 0.0 && spec.prior.is_none() { (Scale::Log, start) } else { (Scale::Linear, start.abs().max((hi - lo) / 10.0)) };
+            // a laminar ratio is known by its distance from 1, to a factor
+            let (scale, typical) = if param == "b_lam" && hi < 1.0 {
+                (Scale::LogGap, 1.0 - start)
+            } else if lo > 0.0 && spec.prior.is_none() {
+                (Scale::Log, start)
+            } else {
+                (Scale::Linear, start.abs().max((hi - lo) / 10.0))
+            };
             let name = if single {
                 spec.target.clone()
             } else if label.is_empty() {
@@ -396,7 +426,17 @@ mod tests {
         let names: Vec<&str> = specs.iter().map(|c| c.target.as_str()).collect();
         assert_eq!(
             names,
-            vec!["friction.k0", "friction.k2", "flow_control.C", "dcv.C", "flow_control.m", "flow_control.cracking_pressure", "dcv.m"]
+            vec![
+                "friction.k0",
+                "friction.k2",
+                "flow_control.C",
+                "dcv.C",
+                "flow_control.m",
+                "flow_control.cracking_pressure",
+                "dcv.m",
+                "flow_control.b_lam",
+                "dcv.b_lam"
+            ]
         );
         let m = &specs[4];
         assert_eq!(m.prior, Some(Prior { center: 0.5, sd: SUBSONIC_INDEX_SD }));
@@ -409,5 +449,28 @@ mod tests {
         assert_eq!(pm.prior_row(0.5), Some(0.0));
         assert!((pm.prior_row(0.6).unwrap() - 1.0).abs() < 1e-12);
         assert_eq!(ps[0].prior_row(10.0), None);
+    }
+
+    #[test]
+    fn a_laminar_ratio_is_fitted_by_its_distance_from_one() {
+        let specs = default_calibration(&meter_out());
+        let spec = specs.iter().find(|c| c.target == "dcv.b_lam").unwrap();
+        assert_eq!(spec.prior, Some(Prior { center: 0.999, sd: LAMINAR_RATIO_SD }));
+        assert_eq!(spec.bounds, Some(LAMINAR_RATIO_BOUNDS));
+        let d = dataset(&["head.p"], 20);
+        let e = Experiment::from_dataset("e", &d, None, vec![], None, &[]).unwrap();
+        let ps = calibration_params(&meter_out(), &[e], std::slice::from_ref(spec)).unwrap();
+        let p = &ps[0];
+        assert_eq!(p.scale, Scale::LogGap);
+        // increasing in b_lam (the bounds map to lower < upper), round trip exact
+        let (lo, hi) = (p.to_u(p.lo), p.to_u(p.hi));
+        assert!(lo < p.to_u(0.999) && p.to_u(0.999) < hi && p.to_u(0.999).abs() < 1e-12, "{lo} {hi}");
+        assert!((p.from_u(p.to_u(0.9973)) - 0.9973).abs() < 1e-15);
+        // the fit's finite-difference step (1e-3 in u) moves b_lam by a
+        // millionth, not by half a prior σ as a coordinate b_lam/0.999 would
+        let step = p.from_u(p.to_u(0.999) + 1e-3) - 0.999;
+        assert!(step > 0.0 && step < 1e-5 * LAMINAR_RATIO_SD / 1e-3, "{step}");
+        // the prior is on b_lam itself
+        assert!((p.prior_row(0.997).unwrap() + 1.0).abs() < 1e-9);
     }
 }

@@ -49,6 +49,10 @@ pub enum Scale {
     Linear,
     /// Fitted as ln(value / start) (needs lo > 0).
     Log,
+    /// Fitted as −ln((1 − value)/typical), `typical` the start's distance
+    /// from 1 (needs hi < 1): a ratio known by its distance from 1 to a
+    /// factor, such as an ISO 6358 laminar ratio (calibration only).
+    LogGap,
 }
 
 /// One parameter of an effect.
