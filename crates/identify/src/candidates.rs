@@ -70,8 +70,10 @@
 //! more start ([`recentred`]): the current model's calibration with every
 //! parameter that has a prior back at its prior centre (the netlist's
 //! value), the effect at its best point of a scan of its grid from there
-//! (one simulation per grid point on the short records); the best start is kept by
-//! the screen's criterion as any other. The comparison stays fair because
+//! (one simulation per grid point on the short records), those parameters
+//! held at their centres on the short records ([`hold_priors`]; left free
+//! they bend back) and freed by the full-record fit; the best start is
+//! kept by the screen's criterion as any other. The comparison stays fair because
 //! the current model is given the same start at the beginning of each
 //! round ([`crate::selection`], `recentre`): its short-record refit from
 //! there replaces the short-record reference when its prior-penalised
@@ -916,6 +918,25 @@ mod tests {
         // a centre outside the bounds is clamped into them
         params[1].hi = 0.45;
         assert_eq!(recentred(&params, &[0.44, 0.25, 0.0]).unwrap()[1], 0.45);
+    }
+
+    #[test]
+    fn the_recentred_start_holds_only_the_parameters_with_a_prior() {
+        let flat = crate::netlist_edit::tests_support::meter_out();
+        let d = crate::experiment::tests::dataset(&["head.p"], 20);
+        let e = vec![crate::experiment::Experiment::from_dataset("e", &d, None, vec![], None, &[]).unwrap()];
+        let params = crate::params::calibration_params(&flat, &e, &crate::params::default_calibration(&flat)).unwrap();
+        let problem = problem_for(&flat, &e, vec![], params.clone(), &Options::default());
+        let values: Vec<f64> = params.iter().map(|p| p.start).collect();
+        let held = hold_priors(&problem, &values);
+        for (p, (q, v)) in params.iter().zip(held.params.iter().zip(&values)) {
+            if p.prior.is_some() {
+                assert_eq!((q.lo, q.hi), (*v, *v), "{} held", p.name);
+            } else {
+                assert_eq!((q.lo, q.hi), (p.lo, p.hi), "{} free", p.name);
+            }
+        }
+        assert!(params.iter().any(|p| p.prior.is_some()) && params.iter().any(|p| p.prior.is_none()));
     }
 
     #[test]
