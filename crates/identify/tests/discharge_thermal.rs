@@ -426,6 +426,8 @@ fn conductance_md_s_unloading_times_are_eq_36_of_the_rigs() {
     use identify::discharge::{gamma_air, reference_pressure, unloading_time_from_conductance};
     // "p_N = ρ_N R T_N = 99.72 kPa"
     page().says("p_N = ρ_N R T_N =", &[Some(reference_pressure() / 1e3)]);
+    // "Enters C through K_T0 = (T_N/T0)^½ (0.17 % per K)": −½ dT0/T0 at T0 = T_N
+    page().says("Enters C through K_T0 = (T_N/T0)^½ (", &[Some(100.0 * 0.5 / T_N)]);
     // "(p0 = 7 bar for C = 100, 6 bar for C = 30; τ_U = 0.21, 1.7, 0.29 and 1.4 s; τ_T = 1 s is
     // 4.6, 0.58, 3.5 and 0.70 τ.)": Eq. 36 at T0 = T_N of the four rigs, and τ_T/τ_U
     let tau_u: Vec<f64> = RIGS.iter().map(|r| unloading_time_from_conductance(r.c_lpmb * LPMB, r.volume, gamma_air(T_N), T_N)).collect();
