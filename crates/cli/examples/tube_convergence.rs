@@ -96,15 +96,18 @@ pub fn grid(tc: f64) -> (f64, f64) {
     (6.0 * tc, tc / 400.0)
 }
 
+/// A run's name and its closed-end pressure: (t [s], p [Pa]).
+pub type Trace = (String, Vec<(f64, f64)>);
+
 /// The study: both tables, as printed (the lines of docs/data/tube_convergence.txt
 /// for `finest` = 40), and the closed-end pressure of every run, named. The
 /// time of each run goes to stderr.
-pub fn study(finest: usize) -> (Vec<String>, Vec<(String, Vec<(f64, f64)>)>) {
+pub fn study(finest: usize) -> (Vec<String>, Vec<Trace>) {
     let tc = travel_time();
     let (t_end, dt) = grid(tc);
     let ns: Vec<usize> = [2usize, 5, 10, 20, 40, 80, 160].into_iter().filter(|&n| n < finest).chain([finest]).collect();
     let mut lines = Vec::new();
-    let mut columns: Vec<(String, Vec<(f64, f64)>)> = Vec::new();
+    let mut columns: Vec<Trace> = Vec::new();
     lines.push(format!(
         "Line at {LOW} of air's viscosity against the lossless wave, L/c = {:.3} ms, exact: arrival {:.3} ms, return {:.3} ms, plateau 2Δp = {:.3} bar",
         tc * 1e3,
