@@ -323,7 +323,7 @@ fn validation_md_s_breakaway_reproduction_is_what_the_run_gives() {
     let slide = r.events.iter().find(|e| e.t > command.t && e.what.contains("piston: sliding, retracting")).expect("the breakaway");
     let page = validation().section("## Events that cannot be missed");
     // "the retract command at 1.8009 s is followed by the breakaway root at 1.847820 s"
-    page.says("Before: the retract command at", &[Some(command.t), Some(slide.t)]);
+    page.says("the stuck piston is a record of the old code): the retract command at", &[Some(command.t), Some(slide.t)]);
     // "After: it slides at 1.847820 s and the run completes 14 cycles of 0.4137 s"
     let last = r.cycles.last().expect("cycles").total;
     assert!(r.cycles[1..].iter().all(|c| (c.total / last - 1.0).abs() < 1e-3), "periodic from the second cycle");
