@@ -27,6 +27,7 @@
 //! worse than the right law does (the early, fast part of a blowdown from
 //! its slow end, and back).
 
+use crate::effects::Scale;
 use crate::fit::Fit;
 use crate::problem::Problem;
 use nalgebra::{DMatrix, DVector};
@@ -71,21 +72,35 @@ impl HeldOut {
 }
 
 /// The Gauss–Newton step that refits on the rows outside `held`.
-fn refit_step(f: &Fit, held: &std::ops::Range<usize>) -> DVector<f64> {
-    refit_step_without(f, &|i| held.contains(&i))
+fn refit_step(f: &Fit, held: &std::ops::Range<usize>, frozen: &[bool]) -> DVector<f64> {
+    refit_step_without(f, &|i| held.contains(&i), frozen)
 }
 
-/// The Gauss–Newton step that refits on the rows where `held` is false.
-fn refit_step_without(f: &Fit, held: &dyn Fn(usize) -> bool) -> DVector<f64> {
+/// The Gauss–Newton step that refits on the rows where `held` is false;
+/// the parameters marked `frozen` keep their values (their columns are
+/// left out, so the minimum-norm solution does not move them).
+fn refit_step_without(f: &Fit, held: &dyn Fn(usize) -> bool, frozen: &[bool]) -> DVector<f64> {
     let p = f.u.len();
     let m = f.residuals.len();
     let keep: Vec<usize> = (0..m).filter(|&i| !held(i)).collect();
-    let j = DMatrix::from_fn(keep.len(), p, |a, b| f.jacobian[(keep[a], b)]);
+    let j = DMatrix::from_fn(keep.len(), p, |a, b| if frozen.get(b).copied().unwrap_or(false) { 0.0 } else { f.jacobian[(keep[a], b)] });
     let r = DVector::from_fn(keep.len(), |a, _| f.residuals[keep[a]]);
     let a = j.transpose() * &j;
     let g = j.transpose() * r;
     let tol = a.diagonal().iter().fold(0.0_f64, |x, v| x.max(v.abs())) * 1e-12;
     a.svd(true, true).solve(&(-g), tol).unwrap_or_else(|_| DVector::zeros(p))
+}
+
+/// The parameters the linearised refit leaves at their fitted values: those
+/// fitted on their distance from a limit ([`Scale::LogGap`], the ISO 6358
+/// laminar ratio). The model is far from linear in them — the laminar end
+/// acts only in the top thousandth of the pressure ratio — so one
+/// Gauss–Newton step moves them far past where a refit would: measured on
+/// the shipped discrepancy example, the baseline's held-out RMSE went from
+/// 9.49 to 19.48 with them in the step although its calibration was the
+/// same (docs/discrepancy.md, "Laminar ratio calibrated").
+fn frozen_in_refit(problem: &Problem) -> Vec<bool> {
+    problem.params.iter().map(|p| p.scale == Scale::LogGap).collect()
 }
 
 /// Leave-one-experiment-out prediction errors of a fit of `problem` (see
@@ -117,10 +132,11 @@ pub fn leave_one_out(problem: &Problem, f: &Fit) -> Result<HeldOut, String> {
     }
     let lo: Vec<f64> = problem.params.iter().map(|p| p.to_u(p.lo)).collect();
     let hi: Vec<f64> = problem.params.iter().map(|p| p.to_u(p.hi)).collect();
+    let frozen = frozen_in_refit(problem);
     let folds: Vec<Result<Vec<HeldBlock>, String>> = layout
         .par_iter()
         .map(|(k, rows)| {
-            let delta = refit_step(f, rows);
+            let delta = refit_step(f, rows, &frozen);
             let u: Vec<f64> = (0..f.u.len()).map(|i| (f.u[i] + delta[i]).clamp(lo[i], hi[i])).collect();
             let values = problem.values_of(&u);
             let result = problem.simulate(*k, &values, problem.intervals[*k])?;
@@ -161,13 +177,14 @@ fn split_in_time(problem: &Problem, f: &Fit, blocks: &[crate::problem::Block]) -
     }
     let lo: Vec<f64> = problem.params.iter().map(|p| p.to_u(p.lo)).collect();
     let hi: Vec<f64> = problem.params.iter().map(|p| p.to_u(p.hi)).collect();
+    let frozen = frozen_in_refit(problem);
     let mut out: Vec<HeldBlock> = blocks.iter().map(|b| HeldBlock { experiment: k, channel: b.channel, chi2: 0.0, n: 0 }).collect();
     // per fold: (block, χ², rows) of the held half
     type Fold = Result<Vec<(usize, f64, usize)>, String>;
     let folds: Vec<Fold> = [false, true]
         .par_iter()
         .map(|&held_late| {
-            let delta = refit_step_without(f, &|i| is_data[i] && late[i] == held_late);
+            let delta = refit_step_without(f, &|i| is_data[i] && late[i] == held_late, &frozen);
             let u: Vec<f64> = (0..f.u.len()).map(|i| (f.u[i] + delta[i]).clamp(lo[i], hi[i])).collect();
             let result = problem.simulate(k, &problem.values_of(&u), problem.intervals[k])?;
             let (r, _) = problem.residuals_from(k, &result)?;
@@ -217,7 +234,10 @@ mod tests {
             message: String::new(),
         };
         let a_second: f64 = (3..6).map(|i| xs[i] * ys[i]).sum::<f64>() / (3..6).map(|i| xs[i] * xs[i]).sum::<f64>();
-        let d = refit_step(&f, &(0..3));
+        let d = refit_step(&f, &(0..3), &[]);
         assert!((a_full + d[0] - a_second).abs() < 1e-12);
+        // a frozen parameter keeps its fitted value in the refit
+        let d = refit_step(&f, &(0..3), &[true]);
+        assert!(a_second != a_full && d[0] == 0.0);
     }
 }

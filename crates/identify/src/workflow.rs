@@ -13,10 +13,9 @@
 //!
 //! This module only runs them in order, times them and reports progress.
 
-use crate::candidates::{problem_for, short_reference, Structure};
+use crate::candidates::{calibrate_baseline, problem_for, short_reference, Structure};
 use crate::effects::{catalogue, Effect};
 use crate::experiment::Experiment;
-use crate::fit::fit_staged;
 use crate::options::Options;
 use crate::params::{calibration_params, CalibSpec, Target};
 use crate::phases::Phase;
@@ -90,7 +89,7 @@ pub fn run(base: &FlatNetlist, experiments: &[Experiment], calibrate: &[CalibSpe
         if experiments.len() == 1 { "" } else { "s" },
         p0.len()
     ));
-    let staged = fit_staged(&p0, &start, &opts.fit).map_err(IdentifyError::Baseline)?;
+    let staged = calibrate_baseline(&p0, &start, &opts.fit).map_err(IdentifyError::Baseline)?;
     let mut evaluations = staged.evaluations;
     let f0 = staged.fit.clone().ok_or_else(|| IdentifyError::Baseline("no full-record stage".into()))?;
     let short0 = short_reference(&p0, staged.short.as_ref(), &f0.values, opts);
