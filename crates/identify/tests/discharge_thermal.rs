@@ -24,7 +24,7 @@
 mod common;
 
 use identify::discharge::{
-    analyse, p_atm_start, AnalysisOptions, DischargeData, DischargeSetup, ThermalModel, ThermalOption, ThermalSource,
+    analyse, p_atm_start, AnalysisOptions, DischargeData, DischargeSetup, ThermalCandidate, ThermalModel, ThermalOption, ThermalSource,
 };
 
 const LPMB: f64 = 1e-3 / 60.0 / 1e5; // 1 L/min/bar in m³/(s Pa)
@@ -160,9 +160,18 @@ struct Outcome {
     warnings: Vec<String>,
     /// Length of the trace [s], the pre-trigger included.
     duration: f64,
+    /// The fits the automatic choice compared.
+    candidates: Vec<ThermalCandidate>,
+    /// Process time τ = V/(γ C p_N) of the fitted C [s].
+    process_time: f64,
 }
 
 fn run_case(case: &Case, thermal: ThermalOption) -> Outcome {
+    run_case_with_noise(case, thermal, 1.0)
+}
+
+/// `run_case` with the noise (5 mbar on p, 0.3 K on T) scaled by `scale`.
+fn run_case_with_noise(case: &Case, thermal: ThermalOption, scale: f64) -> Outcome {
     let mut tr = generate(&case.rig, case.heat, case.t_column.unwrap_or(0.0));
     let k = case.pretrigger;
     let duration = tr.t.last().copied().unwrap_or(0.0) + k as f64 * 1e-3;
@@ -170,8 +179,8 @@ fn run_case(case: &Case, thermal: ThermalOption) -> Outcome {
     tr.p = std::iter::repeat_n(tr.p[0], k).chain(tr.p.iter().copied()).collect();
     tr.temperature = std::iter::repeat_n(tr.temperature[0], k).chain(tr.temperature.iter().copied()).collect();
     let mut noise = Noise(case.seed);
-    let p: Vec<f64> = tr.p.iter().map(|v| v + 500.0 * noise.normal()).collect();
-    let temperature = case.t_column.map(|_| tr.temperature.iter().map(|v| v + 0.3 * noise.normal()).collect::<Vec<f64>>());
+    let p: Vec<f64> = tr.p.iter().map(|v| v + scale * 500.0 * noise.normal()).collect();
+    let temperature = case.t_column.map(|_| tr.temperature.iter().map(|v| v + scale * 0.3 * noise.normal()).collect::<Vec<f64>>());
     // T0 as `pneumo conductance` takes it: the first T sample, else 293.15 K
     let t0 = temperature.as_ref().map_or(293.15, |t| t[0]);
     let data = DischargeData::new(tr.t, p, temperature).expect("data");
@@ -190,6 +199,8 @@ fn run_case(case: &Case, thermal: ThermalOption) -> Outcome {
         rms_mbar: m.rms / 100.0,
         warnings: rep.warnings.clone(),
         duration,
+        candidates: th.candidates.clone(),
+        process_time: th.process_time,
     }
 }
 
@@ -327,6 +338,16 @@ fn check_auto(cases: &[Case]) {
                 bad.push(format!("tau_T {fit:.3} s for {t} s"));
             }
         }
+        // "Δχ² from hundreds to hundreds of millions for the wrong limit in the validation below"
+        for wrong in o.candidates.iter().filter(|k| k.model != ThermalModel::FiniteTau && k.model != expected) {
+            eprintln!("    wrong limit {:?}: Δχ² = {:.3e}", wrong.model, wrong.delta_chi2);
+            if !(100.0..1e9).contains(&wrong.delta_chi2) {
+                bad.push(format!(
+                    "the wrong limit {:?} has Δχ² = {:.3e}, not hundreds to hundreds of millions",
+                    wrong.model, wrong.delta_chi2
+                ));
+            }
+        }
         if o.rms_mbar > 6.0 {
             bad.push(format!("misfit {:.2} mbar for 5 mbar noise", o.rms_mbar));
         }
@@ -435,4 +456,41 @@ fn conductance_md_s_unloading_times_are_eq_36_of_the_rigs() {
     page().says("(p0 =", &[p0(100.0), Some(100.0), p0(30.0), Some(30.0)]);
     page().says("for C = 30; τ_U =", &tau_u.iter().map(|t| Some(*t)).collect::<Vec<_>>());
     page().says("τ_T = 1 s is", &tau_u.iter().map(|t| Some(1.0 / t)).collect::<Vec<_>>());
+}
+
+/// The free fit among `candidates` and τ_T/τ (∞ for an infinite τ_T).
+fn free_fit(o: &Outcome) -> (&ThermalCandidate, f64) {
+    let free = o.candidates.iter().find(|k| k.model == ThermalModel::FiniteTau).expect("the free fit");
+    (free, free.tau_thermal.map_or(f64::INFINITY, |t| t / o.process_time))
+}
+
+#[test]
+fn noise_free_limits_agree_with_the_free_fit_beyond_the_ratio_rule() {
+    // "A limit is kept when … the free τ_T is beyond the limit in effect: τ_T/τ ≥ 100 (adiabatic)
+    // or ≤ 0.01 (isothermal). There the limit's C differs from the free fit's by < 0.2 % and its b
+    // by < 0.02 (measured on noise-free traces, where any model difference is "significant": an
+    // adiabatic noise-free trace fits τ_T/τ above 1000 (τ_T over 5000 s, or infinite) and is
+    // called adiabatic)." Checked on every rig's noise-free adiabatic and isothermal trace.
+    let page = page();
+    let rule = page.numbers_after("the free τ_T is beyond the limit in effect: τ_T/τ ≥", 2);
+    let bound = page.numbers_after("There the limit's C differs from the free fit's by <", 2);
+    let adiabatic = page.numbers_after("an adiabatic noise-free trace fits τ_T/τ above", 2);
+    for heat in [Heat::Adiabatic, Heat::Isothermal] {
+        for rig in RIGS {
+            let case = Case { rig, heat, t_column: None, seed: 1, pretrigger: 0, fit_p_atm: false };
+            let o = run_case_with_noise(&case, ThermalOption::Auto, 0.0);
+            let (free, ratio) = free_fit(&o);
+            let limit = o.candidates.iter().find(|k| k.model == o.model).expect("the kept fit");
+            let (dc, db) = (100.0 * (limit.c / free.c - 1.0).abs(), (limit.b - free.b).abs());
+            eprintln!("{rig:?} {heat:?}: kept {:?}, free τ_T/τ {ratio:.3e}, ΔC {dc:.2e} %, Δb {db:.1e}", o.model);
+            let beyond = if matches!(heat, Heat::Adiabatic) { ratio >= rule[0].0 } else { ratio <= rule[1].0 };
+            assert!(beyond, "{rig:?} {heat:?}: noise-free free fit τ_T/τ = {ratio}, not beyond the limit");
+            assert_eq!(o.model, if matches!(heat, Heat::Adiabatic) { ThermalModel::Adiabatic } else { ThermalModel::Isothermal });
+            assert!(dc < bound[0].0 && db < bound[1].0, "{rig:?} {heat:?}: the limit's C is {dc} % and b {db} from the free fit's");
+            if matches!(heat, Heat::Adiabatic) {
+                assert!(ratio > adiabatic[0].0, "{rig:?}: noise-free adiabatic τ_T/τ = {ratio}");
+                assert!(free.tau_thermal.is_none_or(|t| t > adiabatic[1].0), "{rig:?}: τ_T = {:?}", free.tau_thermal);
+            }
+        }
+    }
 }
