@@ -494,3 +494,37 @@ fn noise_free_limits_agree_with_the_free_fit_beyond_the_ratio_rule() {
         }
     }
 }
+
+/// Fit one noisy p-only trace of `rig` (adiabatic, thermal model imposed),
+/// kept while p ≥ `p_stop`, with p_atm given as `p_atm` or fitted (None):
+/// b and its standard error.
+fn b_with_p_atm(rig: &Rig, p_stop: f64, p_atm: Option<f64>, seed: u64) -> (f64, f64) {
+    let tr = generate(rig, Heat::Adiabatic, 0.0);
+    let n = tr.p.iter().take_while(|p| **p >= p_stop).count();
+    let mut noise = Noise(seed);
+    let p: Vec<f64> = tr.p[..n].iter().map(|v| v + 500.0 * noise.normal()).collect();
+    let data = DischargeData::new(tr.t[..n].to_vec(), p, None).expect("data");
+    let setup = DischargeSetup { volume: rig.volume, p_atm: p_atm.unwrap_or_else(|| p_atm_start(&data)), t0: T_WALL };
+    let opts = AnalysisOptions { thermal: ThermalOption::Adiabatic, fit_p_atm: p_atm.is_none(), ..AnalysisOptions::default() };
+    let m = analyse(&data, &setup, &opts).expect("analyse").model_fit.expect("model fit");
+    (m.b, m.b_std)
+}
+
+#[test]
+fn p_atm_fitted_given_or_wrong_moves_b_as_the_page_says() {
+    let page = page();
+    // "a p_atm wrong by 1.3 kPa moves b by about 0.025 (b = 0.3) to 0.03 (b = 0.5)": the whole
+    // trace of the 0.5 L and 1 L rigs, p_atm given true or 1.3 kPa too high
+    let shift = |rig: &Rig| (b_with_p_atm(rig, 0.0, Some(P_ATM + 1.3e3), 701).0 - b_with_p_atm(rig, 0.0, Some(P_ATM), 701).0).abs();
+    page.says(
+        "a p_atm wrong by 1.3 kPa moves b by about",
+        &[Some(shift(&RIGS[0])), Some(RIGS[0].b), Some(shift(&RIGS[3])), Some(RIGS[3].b)],
+    );
+    // "(measured on the validation's 0.5 L rig, C = 100 L/min/bar, b = 0.3, stopping at
+    // 1.5 bar: σ_b = 0.015 with p_atm fitted against 0.003 with it given)"
+    let rig = RIGS[0];
+    page.says("(measured on the validation's", &[Some(rig.volume * 1e3), Some(rig.c_lpmb), Some(rig.b), Some(1.5)]);
+    let (_, sigma_fitted) = b_with_p_atm(&rig, 1.5e5, None, 702);
+    let (_, sigma_given) = b_with_p_atm(&rig, 1.5e5, Some(P_ATM), 702);
+    page.says("stopping at 1.5 bar: σ_b =", &[Some(sigma_fitted), Some(sigma_given)]);
+}
