@@ -528,3 +528,45 @@ fn p_atm_fitted_given_or_wrong_moves_b_as_the_page_says() {
     let (_, sigma_given) = b_with_p_atm(&rig, 1.5e5, Some(P_ATM), 702);
     page.says("stopping at 1.5 bar: σ_b =", &[Some(sigma_fitted), Some(sigma_given)]);
 }
+
+#[test]
+fn noise_free_sweep_of_tau_thermal() {
+    // "On noise-free traces of the same generator, τ_T/τ_U from 10⁻³ to 10³: the free fit's C is
+    // within 0.02 % and b within 0.001 everywhere; the reading switches from isothermal to finite
+    // τ_T between τ_T/τ = 0.01 and 0.03 and from finite τ_T to adiabatic at 100."
+    // The 0.5 L rig at τ_T/τ_U = 10^(k/2) for k = −6, −4, −3, 0, 3, 5, 6 (the ends, both
+    // sides of each switch; the whole half-decade sweep takes twice as long).
+    use identify::discharge::{gamma_air, unloading_time_from_conductance};
+    let page = page();
+    let span = page.numbers_after("On noise-free traces of the same generator, τ_T/τ_U from", 2);
+    let within = page.numbers_after("the free fit's C is within", 2);
+    let switch = page.numbers_after("from isothermal to finite τ_T between τ_T/τ =", 3);
+    let rig = RIGS[0];
+    let tau_u = unloading_time_from_conductance(rig.c_lpmb * LPMB, rig.volume, gamma_air(T_N), T_N);
+    let ks = [-6, -4, -3, 0, 3, 5, 6];
+    assert_eq!((span[0].1.as_str(), span[1].1.as_str()), ("10", "10"), "the page writes 10⁻³ and 10³");
+    for k in ks {
+        let ratio_u = 10f64.powf(f64::from(k) / 2.0);
+        let case = Case { rig, heat: Heat::Tau(ratio_u * tau_u), t_column: None, seed: 1, pretrigger: 0, fit_p_atm: false };
+        let o = run_case_with_noise(&case, ThermalOption::Auto, 0.0);
+        let (free, ratio) = free_fit(&o);
+        let (dc, db) = (100.0 * (free.c / LPMB / rig.c_lpmb - 1.0), free.b - rig.b);
+        eprintln!("τ_T/τ_U {ratio_u:.3e}: {:?}, free τ_T/τ {ratio:.4e}, free C {dc:+.4} %, b {db:+.5}", o.model);
+        assert!(dc.abs() <= within[0].0 && db.abs() <= within[1].0, "τ_T/τ_U = {ratio_u}: free C {dc:+.4} %, b {db:+.5}");
+        let expected = if ratio <= switch[0].0 {
+            ThermalModel::Isothermal
+        } else if ratio >= switch[2].0 {
+            ThermalModel::Adiabatic
+        } else {
+            ThermalModel::FiniteTau
+        };
+        assert_eq!(o.model, expected, "τ_T/τ_U = {ratio_u}: free τ_T/τ = {ratio}");
+        // the switches lie between the sweep's points where the page puts them
+        if (0.009..=0.011).contains(&ratio) {
+            assert_eq!(o.model, ThermalModel::Isothermal, "isothermal at τ_T/τ = {}", switch[0].1);
+        }
+        if (0.029..=0.033).contains(&ratio) {
+            assert_eq!(o.model, ThermalModel::FiniteTau, "finite τ_T at τ_T/τ = {}", switch[1].1);
+        }
+    }
+}
