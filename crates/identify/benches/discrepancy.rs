@@ -27,9 +27,9 @@ fn main() -> Result<(), String> {
         std::fs::read_to_string(&p).map(|t| (t, p.display().to_string())).map_err(|e| e.to_string())
     };
     let mut resolved = identify::manifest::resolve(&manifest, &flat, &read)?;
-    // LSQ_JACOBIAN=fd: a finite-difference Jacobian at every iterate (before/after studies)
-    if std::env::var("LSQ_JACOBIAN").is_ok_and(|s| s == "fd") {
-        resolved.options.fit.jacobian = identify::lsq::JacobianUpdate::FiniteDifference;
+    // LSQ_JACOBIAN=broyden: Broyden updates between finite-difference Jacobians (a study)
+    if std::env::var("LSQ_JACOBIAN").is_ok_and(|s| s == "broyden") {
+        resolved.options.fit.jacobian = identify::lsq::JacobianUpdate::BROYDEN;
     }
     let samples: usize = resolved.experiments.iter().map(|e| e.times.len()).sum();
     let runs: usize = std::env::var("BENCH_RUNS").ok().and_then(|v| v.parse().ok()).unwrap_or(3);

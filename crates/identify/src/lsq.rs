@@ -32,9 +32,9 @@
 //! point would leave the box. Columns are evaluated in parallel with rayon when
 //! `LsqOptions::parallel` is set (the residual function is `Sync`).
 //!
-//! With [`JacobianUpdate::FiniteDifference`] a fresh forward-difference
-//! Jacobian (`n` residual evaluations) is taken at every accepted iterate.
-//! With [`JacobianUpdate::Broyden`] (the default) the Jacobian is carried from
+//! With [`JacobianUpdate::FiniteDifference`] (the default) a fresh
+//! forward-difference Jacobian (`n` residual evaluations) is taken at every
+//! accepted iterate. With [`JacobianUpdate::Broyden`] the Jacobian is carried from
 //! one accepted iterate to the next by Broyden's rank-one secant update
 //! (Madsen, Nielsen & Tingleff, "Methods for non-linear least squares
 //! problems", 2nd ed. 2004, §3.4 "The L-M method with a secant Jacobian",
@@ -68,7 +68,9 @@
 //!   the cost are both `≤ ftol`;
 //! * `xtol`: a step with `‖D·h‖ ≤ xtol·(xtol + ‖D·x‖)`;
 //! * `max_iter` step attempts (accepted or rejected) without the above:
-//!   `converged = false`.
+//!   `converged = false`. With Broyden updates only the attempts from a
+//!   finite-difference Jacobian count (the limit bounds the finite-difference
+//!   Jacobians as before); at most `max_updates` secant attempts follow each.
 //!
 //! # Covariance
 //! `cov = s²·(JᵀJ)⁻¹` with `s² = 2·cost/(m − n)` at the solution, using the full
@@ -100,9 +102,17 @@ pub enum JacobianUpdate {
 }
 
 impl Default for JacobianUpdate {
+    /// Finite differences at every iterate: on the discrepancy fits the
+    /// Broyden variant ends at other points (docs/discrepancy.md, "Speed").
     fn default() -> Self {
-        JacobianUpdate::Broyden { max_updates: 8 }
+        JacobianUpdate::FiniteDifference
     }
+}
+
+impl JacobianUpdate {
+    /// Broyden updates with a fresh finite-difference Jacobian at least
+    /// every 8 steps.
+    pub const BROYDEN: JacobianUpdate = JacobianUpdate::Broyden { max_updates: 8 };
 }
 
 /// Residual evaluations of all least-squares runs of this process, by use
@@ -155,7 +165,9 @@ impl Bounds {
 /// tolerances.
 #[derive(Debug, Clone)]
 pub struct LsqOptions {
-    /// Maximum number of step attempts (accepted or rejected).
+    /// Maximum number of step attempts (accepted or rejected) from a
+    /// finite-difference Jacobian (with [`JacobianUpdate::FiniteDifference`]:
+    /// all of them).
     pub max_iter: usize,
     /// Relative reduction of the cost below which the iteration stops.
     pub ftol: f64,
@@ -446,7 +458,13 @@ where
         }
     };
 
-    let ev = Evaluator { f: &f, m: AtomicUsize::new(0), count: AtomicUsize::new(0), columns: AtomicUsize::new(0), jacobians: AtomicUsize::new(0) };
+    let ev = Evaluator {
+        f: &f,
+        m: AtomicUsize::new(0),
+        count: AtomicUsize::new(0),
+        columns: AtomicUsize::new(0),
+        jacobians: AtomicUsize::new(0),
+    };
     let mut x = x0.to_vec();
     project(&mut x);
     let mut r = ev.eval(&x).map_err(|message| LsqError::Residual { x: x.clone(), message })?;
@@ -472,6 +490,8 @@ where
     let mut mu = 1e-3;
     let mut nu = 2.0;
     let mut iterations = 0;
+    // step attempts from finite-difference Jacobians: those the limit counts
+    let mut counted = 0;
     let mut converged = false;
     let mut message = String::from("iteration limit reached");
 
@@ -542,10 +562,11 @@ where
 
         // Inner loop: try steps until one is accepted.
         loop {
-            if iterations >= opts.max_iter {
+            if counted >= opts.max_iter && exact {
                 break 'outer;
             }
             iterations += 1;
+            counted += exact as usize;
             let Some(hf) = damped_solve(&a, &d2f, mu, &b) else {
                 mu *= nu;
                 nu *= 2.0;
@@ -591,7 +612,7 @@ where
                 mu *= (1.0_f64 / 3.0).max(1.0 - (2.0 * rho - 1.0).powi(3));
                 nu = 2.0;
                 let cost_test = actual_rel <= opts.ftol && pred_rel <= opts.ftol;
-                let last = !cost_test && iterations >= opts.max_iter;
+                let last = !cost_test && counted >= opts.max_iter && since >= max_updates;
                 if !opts.final_jacobian && last {
                     exact = false;
                     break 'outer;
@@ -628,6 +649,9 @@ where
             }
             if !exact {
                 // A step of an updated Jacobian failed: refresh it, keep μ.
+                if counted >= opts.max_iter {
+                    break 'outer;
+                }
                 (jac, exact, since) = (fd(&x, &r)?, true, 0);
                 continue 'outer;
             }
@@ -682,8 +706,8 @@ mod tests {
         LsqOptions { parallel, ..LsqOptions::default() }
     }
 
-    fn fd_opts(parallel: bool) -> LsqOptions {
-        LsqOptions { jacobian: JacobianUpdate::FiniteDifference, ..opts(parallel) }
+    fn broyden_opts(parallel: bool) -> LsqOptions {
+        LsqOptions { jacobian: JacobianUpdate::BROYDEN, ..opts(parallel) }
     }
 
     type Residuals<'a> = Box<dyn Fn(&[f64]) -> Result<Vec<f64>, String> + Sync + 'a>;
@@ -693,7 +717,8 @@ mod tests {
         let mut rng = Normal::new(42);
         let t: Vec<f64> = (0..120).map(|i| i as f64 * 0.03).collect();
         let y: Vec<f64> = t.iter().map(|&ti| 2.0 * (-ti / 0.7).exp() + 0.3 + 0.02 * rng.normal()).collect();
-        let decay: Residuals = Box::new(move |p: &[f64]| Ok(t.iter().zip(&y).map(|(&ti, &yi)| p[0] * (-ti / p[1]).exp() + p[2] - yi).collect()));
+        let decay: Residuals =
+            Box::new(move |p: &[f64]| Ok(t.iter().zip(&y).map(|(&ti, &yi)| p[0] * (-ti / p[1]).exp() + p[2] - yi).collect()));
         let t: Vec<f64> = (0..10).map(|i| i as f64).collect();
         let line: Residuals = Box::new(move |p: &[f64]| Ok(t.iter().map(|ti| p[0] * ti + p[1] - (2.0 * ti + 1.0)).collect()));
         vec![
@@ -707,8 +732,8 @@ mod tests {
     #[test]
     fn broyden_updates_reach_the_finite_difference_optimum_with_fewer_evaluations() {
         for (name, f, x0, b) in problems() {
-            let fd = least_squares(&f, &x0, &b, &fd_opts(false)).expect("solve");
-            let secant = least_squares(&f, &x0, &b, &opts(false)).expect("solve");
+            let fd = least_squares(&f, &x0, &b, &opts(false)).expect("solve");
+            let secant = least_squares(&f, &x0, &b, &broyden_opts(false)).expect("solve");
             assert!(fd.converged && secant.converged, "{name}: {} / {}", fd.message, secant.message);
             for (a, c) in fd.x.iter().zip(&secant.x) {
                 assert!((a - c).abs() <= 1e-6 * a.abs().max(1.0), "{name}: {:?} vs {:?}", fd.x, secant.x);
@@ -731,18 +756,24 @@ mod tests {
     fn broyden_returns_the_finite_difference_jacobian_at_its_last_point() {
         let (_, f, x0, b) = problems().swap_remove(1);
         let fd_at = |x: &[f64], r: &[f64], o: &LsqOptions| {
-            let ev = Evaluator { f: &f, m: AtomicUsize::new(r.len()), count: AtomicUsize::new(0), columns: AtomicUsize::new(0), jacobians: AtomicUsize::new(0) };
+            let ev = Evaluator {
+                f: &f,
+                m: AtomicUsize::new(r.len()),
+                count: AtomicUsize::new(0),
+                columns: AtomicUsize::new(0),
+                jacobians: AtomicUsize::new(0),
+            };
             jacobian(&ev, x, r, &b, o).expect("jacobian")
         };
         // converged: the Jacobian and covariance are those of differences at the solution
-        let o = opts(true);
+        let o = broyden_opts(true);
         let res = least_squares(&f, &x0, &b, &o).expect("fit");
         assert!(res.converged && res.updates > 0, "{} ({} updates)", res.message, res.updates);
         let j = fd_at(&res.x, &res.residuals, &o);
         assert_eq!(res.jacobian, j);
         assert_eq!(res.covariance, covariance(&j, res.cost));
         // cut by the iteration limit right after secant steps: recomputed too ...
-        let cut = LsqOptions { max_iter: 10, ..o.clone() };
+        let cut = LsqOptions { max_iter: 5, ..o.clone() };
         let res = least_squares(&f, &x0, &b, &cut).expect("fit");
         assert!(!res.converged && res.updates > 0, "{} ({} updates)", res.message, res.updates);
         let j = fd_at(&res.x, &res.residuals, &o);
@@ -877,7 +908,7 @@ mod tests {
     fn without_the_final_jacobian_a_run_cut_by_the_limit_ends_at_the_same_point_with_fewer_evaluations() {
         // Rosenbrock from the classic start needs more than 5 step attempts
         let f = |x: &[f64]| Ok(vec![10.0 * (x[1] - x[0] * x[0]), 1.0 - x[0]]);
-        let with = LsqOptions { max_iter: 5, ..fd_opts(false) };
+        let with = LsqOptions { max_iter: 5, ..opts(false) };
         let a = least_squares(f, &[-1.2, 1.0], &Bounds::unbounded(2), &with).expect("solve");
         let b = least_squares(f, &[-1.2, 1.0], &Bounds::unbounded(2), &LsqOptions { final_jacobian: false, ..with }).expect("solve");
         assert!(!a.converged && !b.converged);

@@ -53,10 +53,10 @@ fn run(case: Case, seed: u64, variation: Variation, cycles: usize) -> (truth::Tr
             eprintln!("[{:7.1} s, {n:6} sims] {m}", clock.elapsed().as_secs_f64())
         });
     }
-    // LSQ_JACOBIAN=fd: a finite-difference Jacobian at every iterate (the
-    // least squares before Broyden updates, for before/after studies)
-    if std::env::var("LSQ_JACOBIAN").is_ok_and(|s| s == "fd") {
-        options.fit.jacobian = identify::lsq::JacobianUpdate::FiniteDifference;
+    // LSQ_JACOBIAN=broyden: Broyden updates between finite-difference
+    // Jacobians in every fit (identify::lsq::JacobianUpdate; a study)
+    if std::env::var("LSQ_JACOBIAN").is_ok_and(|s| s == "broyden") {
+        options.fit.jacobian = identify::lsq::JacobianUpdate::BROYDEN;
     }
     if std::env::var("SENSORS").is_ok_and(|s| s == "offset") {
         options.sensors.gain = false;
