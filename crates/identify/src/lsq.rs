@@ -180,8 +180,9 @@ pub struct LsqOptions {
     /// Evaluate Jacobian columns in parallel (rayon).
     pub parallel: bool,
     /// Compute the Jacobian at the last point when the iteration limit ends
-    /// the run right after an accepted step (for the covariance). Without it
-    /// the result's `jacobian` and `covariance` are those of the previous
+    /// the run right after an accepted step (for the covariance; with
+    /// Broyden updates, also when the cost test does). Without it the
+    /// result's `jacobian` and `covariance` are those of the previous
     /// iterate (`x`, `cost` and `residuals` are the same either way).
     /// With [`JacobianUpdate::Broyden`] it also makes the returned Jacobian
     /// the finite-difference one at `x` when the limit ends the run.
@@ -632,8 +633,8 @@ where
                     continue 'outer;
                 }
                 if cost_test && !secant_step && max_updates > 0 && !opts.final_jacobian {
-                    // converged on a finite-difference step; the Jacobian
-                    // at the new point is wanted by nobody
+                    // converged on a step from a finite-difference Jacobian;
+                    // the Jacobian at the new point is wanted by nobody
                     converged = true;
                     exact = false;
                     message = format!("cost test: relative reduction {actual_rel:.3e} <= ftol");
