@@ -30,6 +30,12 @@ What it does, for 'Air' (CoolProp's pseudo-pure air) and 'Nitrogen':
    states that the Rust tests read; see the '#' header lines of each file for
    the columns and the enthalpy reference.
 
+4. Fine-grid CSVs (tests/data/coolprop_<gas>_fine.csv): the CoolProp values
+   of the accuracy tables' grids below (the ideal-gas cp0 and h0 every 1 K
+   over 200-1000 K; the real-gas states of the two check grids), so that
+   crates/gas/src/doc_numbers.rs recomputes docs/gas.md's tables "Fit" and
+   "Accuracy reached" from the Rust models without Python.
+
 The script prints the Rust constants to paste into crates/gas/src and a
 Markdown table of the accuracy reached (used in docs/gas.md).
 """
@@ -233,10 +239,50 @@ def write_fixture(name, fluid, r, rows):
     return path
 
 
+# The accuracy tables' grids: 1 K steps over 200-1000 K for the ideal-gas part
+# (h0 compared every 10 K); for the real gas, 5 K steps and 30 log-spaced
+# pressures plus those of the fixture, on two grids: 250-400 K x 1-10 bar and
+# 200-500 K x 1-300 bar (whose 250-400 K part is the 1-300 bar row's grid).
+IDEAL_CHECK_T = np.linspace(200.0, 1000.0, 801)
+CHECK_GRIDS = {10: (250.0, 400.0, 1e5, 1e6), 300: (200.0, 500.0, 1e5, 3e7)}
+
+
+def check_grid(tlo, thi, plo, phi):
+    ts = np.arange(tlo, thi + 1e-9, 5.0)
+    ps = np.union1d(np.geomspace(plo, phi, 30), [x * 1e5 for x in FIX_P_BAR if plo <= x * 1e5 <= phi])
+    return ts, ps
+
+
+def write_fine(name, fluid, r):
+    """tests/data/coolprop_<name>_fine.csv: CoolProp on the accuracy tables' grids."""
+    path = os.path.join(HERE, f"coolprop_{name}_fine.csv")
+    with open(path, "w", newline="\n") as f:
+        f.write(f"# CoolProp {CoolProp.__version__} values for '{fluid}' on the grids of docs/gas.md's tables 'Fit' and\n")
+        f.write("# 'Accuracy reached', written by tests/data/make_gas_fixture.py (enthalpies as in coolprop_<gas>.csv).\n")
+        f.write("# grid 0: the ideal gas, T = 200..1000 K by 1 K (p, rho, cp, h, h_dep empty); grid 10 or 300: the real\n")
+        f.write("# gas on the check grid of 5 K steps x 30 log-spaced pressures up to 10 or 300 bar plus the fixture's\n")
+        f.write("# (cp0, h0 empty)\n")
+        f.write("grid,T_K,p_Pa,rho_kg_m3,cp_J_kgK,h_J_kg,h_dep_J_kg,cp0_J_kgK,h0_J_kg\n")
+        for t in IDEAL_CHECK_T:
+            f.write(f"0,{t:.10g},,,,,,{cp0(fluid, t):.10g},{h_ideal(fluid, t):.10g}\n")
+        for grid, rng in CHECK_GRIDS.items():
+            ts, ps = check_grid(*rng)
+            for t in ts:
+                for p in ps:
+                    s = reference_state(fluid, r, t, p)
+                    f.write(f"{grid}," + ",".join(f"{s[k]:.10g}" for k in ["T", "p", "rho", "cp", "h", "h_dep"]) + ",,\n")
+    return path
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--no-write", action="store_true", help="do not write the CSV fixtures")
+    ap.add_argument("--fine-only", action="store_true", help="only write the fine-grid CSVs (no fit)")
     args = ap.parse_args()
+    if args.fine_only:
+        for name, (fluid, r) in GASES.items():
+            print("# wrote", write_fine(name, fluid, r))
+        return 0
 
     print(f"# CoolProp {CoolProp.__version__}, scipy {scipy.__version__}, numpy {np.__version__}")
     table = []
@@ -247,6 +293,7 @@ def main():
         rows = [reference_state(fluid, r, float(t), p * 1e5) for t in FIX_T for p in FIX_P_BAR]
         if not args.no_write:
             print("# wrote", write_fixture(name, fluid, r, rows))
+            print("# wrote", write_fine(name, fluid, r))
 
         # ---- Rust constants
         print(f"\n// {name}: NASA cp/R coefficients a1..a5 (T in K), fit 200-1000 K")
@@ -261,7 +308,7 @@ def main():
         print("];")
 
         # ---- accuracy on a dense check grid (not the training grid)
-        tt = np.linspace(200.0, 1000.0, 801)
+        tt = IDEAL_CHECK_T
         cp_ref = np.array([cp0(fluid, x) for x in tt])
         e_cp0 = nasa_cp(a, r, tt) / cp_ref - 1.0
         dcp_abs = np.abs(nasa_cp(a, r, tt) - cp_ref).max()
@@ -275,8 +322,7 @@ def main():
         def check(tlo, thi, plo, phi):
             # 5 K steps and 30 log-spaced pressures plus those of the fixture,
             # so that the maxima bound what the Rust tests see on the fixture.
-            ts = np.arange(tlo, thi + 1e-9, 5.0)
-            ps = np.union1d(np.geomspace(plo, phi, 30), [x * 1e5 for x in FIX_P_BAR if plo <= x * 1e5 <= phi])
+            ts, ps = check_grid(tlo, thi, plo, phi)
             st = [reference_state(fluid, r, t, p) for t in ts for p in ps]
             t = np.array([s["T"] for s in st])
             rho = np.array([s["rho"] for s in st])

@@ -24,7 +24,10 @@
 //! The time of every run is printed (the Jacobian is dense: the cost grows
 //! quickly with N). `crates/cli/tests/page_quotes.rs` includes this file to
 //! rerun the cheap rows (N = 2, 5; 10 at air's viscosity) and compare them
-//! with docs/blocks.md.
+//! with docs/blocks.md; `crates/cli/tests/page_quotes_tube.rs` compares the
+//! page's other rows with the committed output of `-- out.csv 40`
+//! (docs/data/tube_convergence.txt), and its ignored test reruns the study
+//! and compares that file with what the code gives now.
 
 use std::path::Path;
 
@@ -93,29 +96,33 @@ pub fn grid(tc: f64) -> (f64, f64) {
     (6.0 * tc, tc / 400.0)
 }
 
-fn main() {
-    let out = std::env::args().nth(1);
+/// A run's name and its closed-end pressure: (t [s], p [Pa]).
+pub type Trace = (String, Vec<(f64, f64)>);
+
+/// The study: both tables, as printed (the lines of docs/data/tube_convergence.txt
+/// for `finest` = 40), and the closed-end pressure of every run, named. The
+/// time of each run goes to stderr.
+pub fn study(finest: usize) -> (Vec<String>, Vec<Trace>) {
     let tc = travel_time();
     let (t_end, dt) = grid(tc);
-    // the finest line (the viscous reference) is the second argument, 160 by default
-    let finest: usize = std::env::args().nth(2).and_then(|a| a.parse().ok()).unwrap_or(160);
     let ns: Vec<usize> = [2usize, 5, 10, 20, 40, 80, 160].into_iter().filter(|&n| n < finest).chain([finest]).collect();
-    let mut columns: Vec<(String, Vec<(f64, f64)>)> = Vec::new();
-    println!(
+    let mut lines = Vec::new();
+    let mut columns: Vec<Trace> = Vec::new();
+    lines.push(format!(
         "Line at {LOW} of air's viscosity against the lossless wave, L/c = {:.3} ms, exact: arrival {:.3} ms, return {:.3} ms, plateau 2Δp = {:.3} bar",
         tc * 1e3,
         tc * 1e3,
         3.0 * tc * 1e3,
         2.0 * DP / 1e5
-    );
-    println!("| N | arrival [ms] | error | return [ms] | error | plateau [bar] | error |");
-    println!("|---|---|---|---|---|---|---|");
+    ));
+    lines.push("| N | arrival [ms] | error | return [ms] | error | plateau [bar] | error |".into());
+    lines.push("|---|---|---|---|---|---|---|".into());
     for &n in &ns[..ns.len() - 1] {
         let clock = std::time::Instant::now();
         let p = run(n, 18.1e-6 * LOW, t_end, dt);
         eprintln!("low viscosity N = {n}: {:.1} s", clock.elapsed().as_secs_f64());
         let (a, b, m) = measures(&p, tc);
-        println!(
+        lines.push(format!(
             "| {n} | {:.3} | {:+.1} % | {:.3} | {:+.1} % | {:.4} | {:+.1} % |",
             a * 1e3,
             100.0 * (a / tc - 1.0),
@@ -123,26 +130,26 @@ fn main() {
             100.0 * (b / (3.0 * tc) - 1.0),
             m / 1e5,
             100.0 * (m / (2.0 * DP) - 1.0)
-        );
+        ));
         columns.push((format!("low_viscosity_N{n}"), p));
     }
     let reference = run(finest, 18.1e-6, t_end, dt);
     let (ra, rb, rm) = measures(&reference, tc);
-    println!();
-    println!(
+    lines.push(String::new());
+    lines.push(format!(
         "Air's viscosity (18.1 µPa s), against N = {finest}: arrival {:.3} ms, return {:.3} ms, plateau {:.4} bar",
         ra * 1e3,
         rb * 1e3,
         rm / 1e5
-    );
-    println!("| N | arrival [ms] | error | return [ms] | error | plateau [bar] | error |");
-    println!("|---|---|---|---|---|---|---|");
+    ));
+    lines.push("| N | arrival [ms] | error | return [ms] | error | plateau [bar] | error |".into());
+    lines.push("|---|---|---|---|---|---|---|".into());
     for &n in &ns[..ns.len() - 1] {
         let clock = std::time::Instant::now();
         let p = run(n, 18.1e-6, t_end, dt);
         eprintln!("air N = {n}: {:.1} s", clock.elapsed().as_secs_f64());
         let (a, b, m) = measures(&p, tc);
-        println!(
+        lines.push(format!(
             "| {n} | {:.3} | {:+.1} % | {:.3} | {:+.1} % | {:.4} | {:+.1} % |",
             a * 1e3,
             100.0 * (a / ra - 1.0),
@@ -150,10 +157,22 @@ fn main() {
             100.0 * (b / rb - 1.0),
             m / 1e5,
             100.0 * (m / rm - 1.0)
-        );
+        ));
         columns.push((format!("air_N{n}"), p));
     }
     columns.push((format!("air_N{finest}"), reference));
+    (lines, columns)
+}
+
+fn main() {
+    let out = std::env::args().nth(1);
+    let tc = travel_time();
+    // the finest line (the viscous reference) is the second argument, 160 by default
+    let finest: usize = std::env::args().nth(2).and_then(|a| a.parse().ok()).unwrap_or(160);
+    let (lines, columns) = study(finest);
+    for line in &lines {
+        println!("{line}");
+    }
     if let Some(path) = out {
         // the exact lossless square wave and every run, on the common grid
         let grid: Vec<f64> = columns[0].1.iter().map(|s| s.0).collect();

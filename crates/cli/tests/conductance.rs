@@ -172,6 +172,29 @@ fn conductance_thermal_options_and_warnings() {
     assert_eq!((&rep["thermal"]["model"], &rep["thermal"]["source"]), (&Value::from("adiabatic"), &Value::from("forced")));
     assert_eq!(err.lines().count(), 1, "{err}");
     assert!(err.starts_with("warning: iso.csv: the adiabatic fit leaves") && err.contains("mbar"), "{err}");
+    // docs/conductance.md quotes this warning, word for word, numbers by the shared rule:
+    // "*"the adiabatic fit leaves 26.28 mbar RMS against 4.91 mbar noise (residual lag-1
+    // autocorrelation 0.96): systematic misfit; …"*"
+    let warning = err.trim().trim_start_matches("warning: iso.csv: ");
+    let page = common::quotes::Page::read("docs/conductance.md");
+    // (its numbers: the RMS, the noise, the 1 of "lag-1", the autocorrelation)
+    let quoted = page.numbers_after("for an imposed adiabatic model: *\"", 4);
+    let said: Vec<Option<f64>> = common::numbers::pieces(warning)
+        .into_iter()
+        .filter_map(|p| match p {
+            common::numbers::Piece::Number(x, _) => Some(Some(x)),
+            common::numbers::Piece::Text(_) => None,
+        })
+        .take(quoted.len())
+        .collect();
+    page.says("for an imposed adiabatic model: *\"", &said);
+    let words = |t: &str| t.split(|c: char| !c.is_alphabetic()).filter(|w| !w.is_empty()).map(str::to_string).collect::<Vec<_>>();
+    let markdown = std::fs::read_to_string(common::repo().join("docs/conductance.md")).expect("docs/conductance.md");
+    let joined = markdown.split_whitespace().collect::<Vec<_>>().join(" ");
+    let from =
+        joined.find("for an imposed adiabatic model: *\"").expect("the quoted warning") + "for an imposed adiabatic model: *\"".len();
+    let shown = &joined[from..from + joined[from..].find("\"*").expect("the quote's end")];
+    assert_eq!(words(shown), words(warning), "docs/conductance.md quotes the warning in other words: {shown:?} / {warning:?}");
     // τ_T given with a unit: used as given.
     let (rep, err) = json_report(&dir.0, &["--volume", "1 L", "--data", "iso.csv", "--tau-thermal", "0.1 ms"]);
     let (c, b) = c_and_b(&rep);

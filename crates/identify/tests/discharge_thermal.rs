@@ -17,7 +17,11 @@
 //! Sampled at 1 kHz; Gaussian noise σ = 5 mbar on p (0.3 K on T) from its own
 //! SplitMix64/Box–Muller generator. Each case asserts C within 2 %, b within
 //! 0.05 and the thermal model reported. Run with `--nocapture` to see the
-//! recovery table.
+//! recovery table; docs/conductance.md's "Validation" table and the figures
+//! its prose quotes from these cases are compared with what they give
+//! (common/quotes.rs: to the digits shown, within 0.5 %).
+
+mod common;
 
 use identify::discharge::{
     analyse, p_atm_start, AnalysisOptions, DischargeData, DischargeSetup, ThermalModel, ThermalOption, ThermalSource,
@@ -154,11 +158,14 @@ struct Outcome {
     tau: Option<f64>,
     rms_mbar: f64,
     warnings: Vec<String>,
+    /// Length of the trace [s], the pre-trigger included.
+    duration: f64,
 }
 
 fn run_case(case: &Case, thermal: ThermalOption) -> Outcome {
     let mut tr = generate(&case.rig, case.heat, case.t_column.unwrap_or(0.0));
     let k = case.pretrigger;
+    let duration = tr.t.last().copied().unwrap_or(0.0) + k as f64 * 1e-3;
     tr.t = (0..k).map(|i| i as f64 * 1e-3).chain(tr.t.iter().map(|t| t + k as f64 * 1e-3)).collect();
     tr.p = std::iter::repeat_n(tr.p[0], k).chain(tr.p.iter().copied()).collect();
     tr.temperature = std::iter::repeat_n(tr.temperature[0], k).chain(tr.temperature.iter().copied()).collect();
@@ -182,6 +189,7 @@ fn run_case(case: &Case, thermal: ThermalOption) -> Outcome {
         tau: th.tau_thermal,
         rms_mbar: m.rms / 100.0,
         warnings: rep.warnings.clone(),
+        duration,
     }
 }
 
@@ -193,11 +201,79 @@ fn heat_name(h: Heat) -> String {
     }
 }
 
+/// docs/conductance.md, whose "Validation" table and prose quote these cases.
+fn page() -> common::quotes::Page {
+    common::quotes::Page::read("docs/conductance.md")
+}
+
+/// Fails unless the row of docs/conductance.md's validation table that
+/// describes `case` (C, b, V, data, thermal truth) shows what it gave: the
+/// trace's length, C found and its error in %, b, τ_T found (∞ for the
+/// adiabatic limit) and the misfit.
+fn page_row_says(case: &Case, o: &Outcome) {
+    use common::numbers::{pieces, Piece};
+    let rig = case.rig;
+    let mut data = match case.t_column {
+        None => "p".to_string(),
+        Some(lag) if lag > 0.0 => format!("p, T through a {lag} s sensor"),
+        Some(_) => "p, T".to_string(),
+    };
+    if case.pretrigger > 0 {
+        data.push_str(", pre-trigger");
+    }
+    let truth = match case.heat {
+        Heat::Tau(t) => format!("τ_T = {t} s"),
+        h => heat_name(h),
+    };
+    let key = [format!("{}", rig.c_lpmb), format!("{:.2}", rig.b), format!("{} L", (rig.volume * 1e4).round() / 10.0), data, truth];
+    let text = std::fs::read_to_string(common::repo().join("docs/conductance.md")).expect("docs/conductance.md");
+    let rows: Vec<Vec<String>> = text
+        .lines()
+        .filter(|l| l.starts_with('|'))
+        .map(|l| l.trim().trim_matches('|').split('|').map(|c| c.trim().replace('−', "-")).collect::<Vec<_>>())
+        .filter(|cells| cells.len() == 11 && cells[..3] == key[..3] && cells[4..6] == key[3..])
+        .collect();
+    assert_eq!(rows.len(), 1, "docs/conductance.md: one row of the validation table for {key:?}, found {rows:?}");
+    let numbers = |cell: &str| -> Vec<Option<(f64, String)>> {
+        pieces(cell)
+            .into_iter()
+            .filter_map(|p| match p {
+                Piece::Number(x, word) => Some(Some((x, word))),
+                Piece::Text(_) => None,
+            })
+            .collect()
+    };
+    let row = &rows[0];
+    // trace (s), C found, (C error %), b found, τ_T found, misfit (mbar)
+    let mut cells = numbers(&row[3]);
+    cells.extend(numbers(&row[6]).into_iter().take(2));
+    cells.extend(numbers(&row[7]).into_iter().take(1));
+    let tau = numbers(&row[9]).into_iter().next();
+    assert_eq!(
+        tau.is_none(),
+        o.tau.is_none(),
+        "docs/conductance.md is stale: the row {key:?} says τ_T found {}, the fit gives {:?}",
+        row[9],
+        o.tau
+    );
+    cells.push(tau.flatten());
+    cells.extend(numbers(&row[10]).into_iter().take(1));
+    assert_eq!(cells.len(), 6, "docs/conductance.md: the row {key:?} lacks a number: {row:?}");
+    let values = [Some(o.duration), Some(o.c), Some(100.0 * (o.c / rig.c_lpmb - 1.0)), Some(o.b), o.tau, Some(o.rms_mbar)];
+    page().row_says(&format!("{key:?}"), &cells, &values);
+    assert_eq!(
+        row[8],
+        o.model.name().replace("finite tau_T", "finite τ_T"),
+        "docs/conductance.md is stale: the model reported in the row {key:?}"
+    );
+}
+
 /// Run `cases` with the automatic thermal choice and check every recovery.
 fn check_auto(cases: &[Case]) {
     let mut failures = Vec::new();
     for case in cases {
         let o = run_case(case, ThermalOption::Auto);
+        page_row_says(case, &o);
         let (rig, c_err, b_err) = (case.rig, o.c / case.rig.c_lpmb - 1.0, o.b - case.rig.b);
         eprintln!(
             "| {:>5} | {:.2} | {:>5.2} L | {} | {} | {} | {:<14} | {:>8.3} ({:+.2} %) | {:.3} ({:+.3}) | {:<12} {:<26} | {:>8} | {:.2} |",
@@ -318,6 +394,9 @@ fn adiabatic_fit_of_an_isothermal_trace_is_biased_and_warns() {
     };
     let o = run_case(&case, ThermalOption::Adiabatic);
     eprintln!("forced adiabatic on an isothermal trace: C = {:.2}, b = {:.3}, {:.2} mbar RMS", o.c, o.b, o.rms_mbar);
+    // "gives the issue's biased reading (C = 77.7, b = 0.63, 27.5 mbar)", and the introduction
+    page().says("gives the issue's biased reading (C =", &[Some(o.c), Some(o.b), Some(o.rms_mbar)]);
+    page().says("reading an isothermal trace as adiabatic returns C =", &[Some(o.c), None, Some(o.b), None]);
     assert_eq!(o.model, ThermalModel::Adiabatic);
     assert_eq!(o.source, ThermalSource::Forced);
     assert!((o.c / 100.0 - 1.0).abs() > 0.05, "the adiabatic reading should be biased: {}", o.c);
@@ -340,4 +419,20 @@ fn given_tau_thermal_is_used_as_given() {
     assert_eq!((o.model, o.source, o.tau), (ThermalModel::FiniteTau, ThermalSource::Given, Some(1.0)));
     assert!((o.c / 100.0 - 1.0).abs() < 0.02 && (o.b - 0.3).abs() < 0.05, "C {} b {}", o.c, o.b);
     assert!(o.warnings.is_empty(), "{:?}", o.warnings);
+}
+
+#[test]
+fn conductance_md_s_unloading_times_are_eq_36_of_the_rigs() {
+    use identify::discharge::{gamma_air, reference_pressure, unloading_time_from_conductance};
+    // "p_N = ρ_N R T_N = 99.72 kPa"
+    page().says("p_N = ρ_N R T_N =", &[Some(reference_pressure() / 1e3)]);
+    // "Enters C through K_T0 = (T_N/T0)^½ (0.17 % per K)": −½ dT0/T0 at T0 = T_N
+    page().says("Enters C through K_T0 = (T_N/T0)^½ (", &[Some(100.0 * 0.5 / T_N)]);
+    // "(p0 = 7 bar for C = 100, 6 bar for C = 30; τ_U = 0.21, 1.7, 0.29 and 1.4 s; τ_T = 1 s is
+    // 4.6, 0.58, 3.5 and 0.70 τ.)": Eq. 36 at T0 = T_N of the four rigs, and τ_T/τ_U
+    let tau_u: Vec<f64> = RIGS.iter().map(|r| unloading_time_from_conductance(r.c_lpmb * LPMB, r.volume, gamma_air(T_N), T_N)).collect();
+    let p0 = |c: f64| RIGS.iter().find(|r| r.c_lpmb == c).map(|r| r.p0 / 1e5);
+    page().says("(p0 =", &[p0(100.0), Some(100.0), p0(30.0), Some(30.0)]);
+    page().says("for C = 30; τ_U =", &tau_u.iter().map(|t| Some(*t)).collect::<Vec<_>>());
+    page().says("τ_T = 1 s is", &tau_u.iter().map(|t| Some(1.0 / t)).collect::<Vec<_>>());
 }

@@ -254,9 +254,70 @@ fn step_response_matches_the_nonlinear_model_to_second_order_in_the_amplitude() 
 /// at r = p_A/p_P ≈ 0.994, where the ISO 6358 ω'' grows as (1 − r)^(−3/2))
 /// forward/backward 19.134/19.920 at h = 1.2 µm, 19.4723/19.5507 at h/10,
 /// 19.50746/19.51530 at h/100, exact 19.511381 (docs/linearize.md).
+/// docs/linearize.md's section on how the derivatives are formed, whose
+/// checks quote the two Jacobian tests below.
+fn derivatives_page() -> common::quotes::Page {
+    common::quotes::Page::read("docs/linearize.md").section("## How the derivatives are formed")
+}
+
+/// docs/linearize.md's table of one-sided quotients at mid_stop_5_3's
+/// t = 0.51 s: the column of `cyl.piston.x`, row `cyl.head.m`, forward,
+/// backward and central with the steps h, h/10, h/100, h/1000, against the
+/// exact entry; and the prose that reads it (the gaps, the central errors).
+fn quotient_table_is_what_the_model_gives(model: &mut Model, t: f64, y: &[f64], exact: f64) {
+    let n = model.n_states;
+    let (i, j) = ["cyl.head.m", "cyl.piston.x"].map(|name| (0..n).find(|&k| model.state_name(k) == name).expect(name)).into();
+    let scales = model.state_scales(y);
+    let h = 6e-6 * y[j].abs().max(scales[j]);
+    let f0 = linearize::jacobians::rates(model, t, y).unwrap()[i];
+    let mut at = |dx: f64| {
+        let mut yp = y.to_vec();
+        yp[j] += dx;
+        linearize::jacobians::rates(model, t, &yp).unwrap()[i]
+    };
+    let page = common::quotes::Page::read("docs/linearize.md").section("**Resolved: mid_stop_5_3 at t = 0.51 s**");
+    page.says("| step | forward | backward | central | |---|---|---|---| | h =", &[Some(h * 1e6)]);
+    let mut gaps = Vec::new();
+    let mut central_errors = Vec::new();
+    for (k, first) in ["h = 1.2 µm", "h/10", "h/100", "h/1000"].into_iter().enumerate() {
+        let hk = h / 10f64.powi(k as i32);
+        let (forward, backward) = ((at(hk) - f0) / hk, (f0 - at(-hk)) / hk);
+        let central = (forward + backward) / 2.0;
+        eprintln!("mid_stop_5_3 at {t} s, ∂ṁ_head/∂x with step {hk:e}: forward {forward}, backward {backward}, central {central}");
+        let rows = page.rows(first);
+        assert_eq!(rows.len(), 1, "docs/linearize.md: one row {first:?}");
+        page.row_says(first, &rows[0], &[Some(forward), Some(backward), Some(central)]);
+        // the table is about its digits: each to half a unit of its last digit
+        for (cell, value) in rows[0].iter().zip([forward, backward, central]) {
+            let (written, word) = cell.as_ref().expect("a number");
+            assert!(
+                (written - value).abs() <= common::numbers::half_ulp(word),
+                "docs/linearize.md is stale: the row {first:?} says {word}, the model gives {value:.7}"
+            );
+        }
+        gaps.push(Some(backward - forward));
+        central_errors.push(Some((central - exact).abs()));
+    }
+    let exact_row = page.rows("exact");
+    let (written, word) = exact_row[0][2].as_ref().expect("the exact entry");
+    assert!(
+        (written - exact).abs() <= common::numbers::half_ulp(word),
+        "docs/linearize.md is stale: the exact entry is {exact:.7}, the page says {word}"
+    );
+    page.says("the exact ∂ṁ_head/∂x,", &[Some(exact)]);
+    // "10 ms after the spool opened P→A (s = 0.865) the piston is 0.13 mm off its lower stop"
+    let spool = (0..n).find(|&k| model.state_name(k) == "valve.spool").expect("the spool's state");
+    page.says("10 ms after the spool opened P→A (s =", &[Some(y[spool]), Some(y[j] * 1e3)]);
+    page.says("Forward and backward part by O(h) (", &gaps[..3]);
+    page.says("converges to the exact value as h² (", &central_errors[..3]);
+}
+
 #[test]
 fn exact_state_jacobian_agrees_with_central_differences_on_the_interface_models() {
     let mut smooth_columns = 0;
+    // the worst smooth column of each case, and the curved columns' spreads at h and h/10
+    let mut worsts = Vec::new();
+    let mut meter_out_curvature = None;
     for (file, fraction) in [
         ("meter_out.json", 0.2),
         ("mid_stop_5_3.json", 0.13),
@@ -326,6 +387,9 @@ fn exact_state_jacobian_agrees_with_central_differences_on_the_interface_models(
             }
             if spread[0] > 1e-4 {
                 curved.push((model.state_name(j), spread[0], spread[1]));
+                if file == "meter_out.json" && model.state_name(j) == "piston.x" {
+                    meter_out_curvature = Some((spread[0], spread[1]));
+                }
             }
             smooth_columns += 1;
             // the central differences' O(h²) error (and, at a kink of the
@@ -348,8 +412,28 @@ fn exact_state_jacobian_agrees_with_central_differences_on_the_interface_models(
             worst.0
         );
         assert!(worst.0 < 1e-6, "{file}: the column of {} differs by {:e}", worst.1, worst.0);
+        worsts.push(Some(worst.0));
+        if file == "mid_stop_5_3.json" {
+            worsts.push(Some(op.t));
+        }
+        if file == "mid_stop_5_3.json" && fraction == 0.17 {
+            let c = kept.iter().position(|&k| model.state_name(k) == "cyl.piston.x").expect("the piston's column");
+            let r = kept.iter().position(|&k| model.state_name(k) == "cyl.head.m").expect("the head's mass row");
+            quotient_table_is_what_the_model_gives(&mut model, op.t, &op.y, lm.a[(r, c)]);
+        }
     }
     assert!(smooth_columns >= 25, "{smooth_columns} smooth columns checked");
+    // "measured worst columns: meter_out 1.4e-10, position_control 5.6e-12, sequence_ab 7.5e-11,
+    // paper_cylinder_mid_stroke 1.6e-12, mid_stop_5_3 7.6e-8 at 0.39 s and 7.9e-8 at 0.51 s"
+    // (the cases above in the order meter_out, mid_stop 0.39 s, mid_stop 0.51 s,
+    // position_control, sequence_ab, the paper's cylinder; the first four are rounding level,
+    // deterministic for one build of the code)
+    let [meter, mid_a, t_a, mid_b, t_b, position, sequence, paper] = worsts[..] else { panic!("{worsts:?}") };
+    let page = derivatives_page();
+    page.says("measured worst columns: meter_out", &[meter, position, sequence, paper, mid_a, t_a, mid_b, t_b]);
+    // "(meter_out's `piston.x` column, gap 1.6e-4 at h, 1.6e-5 at h/10, is a curvature too)"
+    let (at_h, at_tenth) = meter_out_curvature.expect("meter_out's piston.x column is curved at h");
+    common::quotes::Page::read("docs/linearize.md").says("(meter_out's `piston.x` column, gap", &[Some(at_h), Some(at_tenth)]);
 }
 
 /// A supply feeding a tank through two restrictions in series, a
@@ -445,6 +529,8 @@ fn exact_input_and_output_jacobians_agree_with_central_differences() {
         ("position_control at 0.6 s", &position, At::Time(0.6), (&[], &[], &["spool"])),
         ("fed tank at 0.1 s", &tank, At::Time(0.1), (&[], &[], &["mdot", "rho"])),
     ];
+    // each case's worst gaps of B, C, D, for docs/linearize.md's table
+    let mut measured: Vec<(&str, [f64; 3])> = Vec::new();
     for (name, flat, at, (difference_inputs, difference_outputs, record_outputs)) in cases {
         let mut model = driven(flat);
         let op = match at {
@@ -521,11 +607,66 @@ fn exact_input_and_output_jacobians_agree_with_central_differences() {
             ("D", scaled_gap(&exact.d, &fd.d, &u_scale, &y_max)),
         ];
         eprintln!("{name}: exact against central differences, scaled relative gaps {gaps:?}");
+        measured.push((name, gaps.map(|g| g.1)));
         for (which, gap) in gaps {
             assert!(gap < 1e-6, "{name}: {which} differs from central differences by {gap:e}");
         }
         // the exact columns are not the differences themselves: some input acts
         let b_norm: f64 = (0..n).flat_map(|i| (0..model.n_inputs()).map(move |k| (i, k))).map(|(i, k)| exact.b[(i, k)].abs()).sum();
         assert!(b_norm > 0.0, "{name}: B is zero");
+    }
+    gap_table_is_what_was_measured(&measured);
+}
+
+/// docs/linearize.md's table of the worst gaps of exact B, C, D against
+/// central differences: each case's row (position_control at 0.3 s and
+/// 0.6 s share one, "a / b" in each cell) reads as measured; a 0 must be
+/// exactly zero (no output feeds through).
+fn gap_table_is_what_was_measured(measured: &[(&str, [f64; 3])]) {
+    use common::numbers::{pieces, Piece};
+    let page = derivatives_page();
+    let text = std::fs::read_to_string(common::repo().join("docs/linearize.md")).expect("docs/linearize.md");
+    let row = |first: &str| -> Vec<Vec<(f64, String)>> {
+        let line = text
+            .lines()
+            .find(|l| l.starts_with(&format!("| {first} |")))
+            .unwrap_or_else(|| panic!("docs/linearize.md lost the row {first:?}"));
+        line.trim()
+            .trim_matches('|')
+            .split('|')
+            .skip(1)
+            .map(|cell| {
+                pieces(cell)
+                    .into_iter()
+                    .filter_map(|p| match p {
+                        Piece::Number(x, w) => Some((x, w)),
+                        Piece::Text(_) => None,
+                    })
+                    .collect()
+            })
+            .collect()
+    };
+    let gaps = |name: &str| measured.iter().find(|m| m.0 == name).unwrap_or_else(|| panic!("no case {name}")).1;
+    let rows: [(&str, Vec<[f64; 3]>); 4] = [
+        ("closed-chamber cylinder (input F, outputs x, p_head, a) at rest", vec![gaps("closed cylinder at rest")]),
+        ("position_control trimmed at x = 100 mm (u, F_load)", vec![gaps("position_control trimmed at x = 100 mm")]),
+        ("position_control at 0.3 s / 0.6 s of its run", vec![gaps("position_control at 0.3 s"), gaps("position_control at 0.6 s")]),
+        (
+            "a supply feeding a tank through two restrictions, a mass-flow source on the junction between them (inputs p_s, T_s, q, T_feed; outputs p, T, rho, mdot) at 0.1 s",
+            vec![gaps("fed tank at 0.1 s")],
+        ),
+    ];
+    for (first, values) in rows {
+        let cells = row(first);
+        for (k, value) in values.iter().enumerate() {
+            // the k-th number of each cell ("8.5e-15 / 8.5e-15")
+            let written: Vec<Option<(f64, String)>> = cells.iter().map(|c| c.get(k).cloned()).collect();
+            for (cell, v) in written.iter().zip(value) {
+                if cell.as_ref().is_some_and(|c| c.1 == "0") {
+                    assert_eq!(*v, 0.0, "docs/linearize.md is stale: the row {first:?} says 0, the test measured {v:e}");
+                }
+            }
+            page.row_says(first, &written, &value.map(Some));
+        }
     }
 }

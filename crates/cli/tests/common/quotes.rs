@@ -36,6 +36,15 @@ impl Page {
         Page::of(format!("{} (section {heading:?})", self.name), lines[..end].join("\n"))
     }
 
+    /// The page from the first line that contains `phrase` to its end (to
+    /// tell apart two tables whose rows start alike).
+    pub fn after(&self, phrase: &str) -> Page {
+        let start =
+            self.raw.lines().position(|l| l.contains(phrase)).unwrap_or_else(|| panic!("{} has no line with {phrase:?}", self.name));
+        let rest: Vec<&str> = self.raw.lines().skip(start).collect();
+        Page::of(format!("{} (after {phrase:?})", self.name), rest.join("\n"))
+    }
+
     /// The lines of the page's ```` ```text ```` blocks, in order (the
     /// outputs the docs checks compare with runs).
     pub fn output_lines(&self) -> Vec<String> {
