@@ -6,6 +6,7 @@ Usage (from the repository root):
     pip install CoolProp scipy numpy
     python3 tests/data/make_gas_fixture.py            # fit, write CSVs, print Rust
     python3 tests/data/make_gas_fixture.py --no-write # fit and report only
+    python3 tests/data/make_gas_fixture.py --alternatives # gas_alternative_fits.csv only
 
 What it does, for 'Air' (CoolProp's pseudo-pure air) and 'Nitrogen':
 
@@ -35,6 +36,10 @@ What it does, for 'Air' (CoolProp's pseudo-pure air) and 'Nitrogen':
    over 200-1000 K; the real-gas states of the two check grids), so that
    crates/gas/src/doc_numbers.rs recomputes docs/gas.md's tables "Fit" and
    "Accuracy reached" from the Rust models without Python.
+
+5. tests/data/gas_alternative_fits.csv: the errors of the fits docs/gas.md
+   compares the joint fit with (Z alone; B and C alone) and CoolProp's second
+   virial coefficient at 300 K, which doc_numbers.rs compares with the page.
 
 The script prints the Rust constants to paste into crates/gas/src and a
 Markdown table of the accuracy reached (used in docs/gas.md).
@@ -186,7 +191,8 @@ def basis(t, rho, kind):
     return np.array(cols).T
 
 
-def fit_virial(fluid, r):
+def fit_virial(fluid, r, n_rho=N_RHO, z_only=False):
+    """The joint fit; `n_rho` = 2 keeps B and C only (D = 0), `z_only` fits Z alone."""
     pts = [reference_state(fluid, r, t, p) for t in FIT_T for p in FIT_P]
     t = np.array([s["T"] for s in pts])
     rho = np.array([s["rho"] for s in pts])
@@ -197,8 +203,11 @@ def fit_virial(fluid, r):
         [basis(t, rho, "z") / z[:, None], W_HDEP * basis(t, rho, "hdep"), W_CV * basis(t, rho, "cvr")]
     )
     b = np.concatenate([(z - 1.0) / z, W_HDEP * hdep, W_CV * cvr])
-    coef, *_ = scipy.linalg.lstsq(a, b)
-    return coef.reshape(N_RHO, N_TAU)
+    if z_only:
+        a, b = a[: len(z)], b[: len(z)]
+    kept = n_rho * N_TAU
+    coef, *_ = scipy.linalg.lstsq(a[:, :kept], b)
+    return np.concatenate([coef, np.zeros(N_RHO * N_TAU - kept)]).reshape(N_RHO, N_TAU)
 
 
 def virial_props(coef, a, r, t, rho):
@@ -274,11 +283,54 @@ def write_fine(name, fluid, r):
     return path
 
 
+ALTERNATIVES = os.path.join(HERE, "gas_alternative_fits.csv")
+
+
+def accuracy(fluid, r, coef, a, tlo, thi, plo, phi):
+    """Largest |Z|, |cp| relative errors and |h - h0|, |h| errors [J/kg] on a check grid."""
+    # 5 K steps and 30 log-spaced pressures plus those of the fixture,
+    # so that the maxima bound what the Rust tests see on the fixture.
+    ts, ps = check_grid(tlo, thi, plo, phi)
+    st = [reference_state(fluid, r, t, p) for t in ts for p in ps]
+    t = np.array([s["T"] for s in st])
+    rho = np.array([s["rho"] for s in st])
+    z, cp, h, hdep = virial_props(coef, a, r, t, rho)
+    ez = np.abs(z / np.array([s["Z"] for s in st]) - 1).max()
+    ecp = np.abs(cp / np.array([s["cp"] for s in st]) - 1).max()
+    ehd = np.abs(hdep - np.array([s["h_dep"] for s in st])).max()
+    eh = np.abs(h - np.array([s["h"] for s in st])).max()
+    return ez, ecp, ehd, eh
+
+
+def write_alternatives():
+    """tests/data/gas_alternative_fits.csv: the fits docs/gas.md compares the joint fit with
+    (Z alone; B and C alone) on the 250-400 K x 1-300 bar check grid, and CoolProp's second
+    virial coefficient at 300 K, which crates/gas/src/doc_numbers.rs compares with the page."""
+    with open(ALTERNATIVES, "w", newline="\n") as f:
+        f.write(f"# CoolProp {CoolProp.__version__}, scipy {scipy.__version__}, numpy {np.__version__}; written by\n")
+        f.write("# tests/data/make_gas_fixture.py (--alternatives). fit: joint (the shipped fit), z_alone (Z residuals\n")
+        f.write("# only), b_and_c (the joint fit without D); errors: largest over 250-400 K x 1-300 bar (the check\n")
+        f.write("# grid), Z and cp in %, h - h0 and h in J/kg. coolprop_b_300k: CoolProp's Bvirial at 300 K in m3/kg\n")
+        f.write("gas,fit,z_percent,cp_percent,h_dep_J_kg,h_J_kg,coolprop_b_300k_m3_kg\n")
+        for name, (fluid, r) in GASES.items():
+            a, _, _ = fit_nasa(fluid, r)
+            b_cp = CP.PropsSI("Bvirial", "T", 300.0, "Dmolar", 1.0e-3, fluid) / CP.PropsSI("molarmass", fluid)
+            for fit, kw in [("joint", {}), ("z_alone", {"z_only": True}), ("b_and_c", {"n_rho": 2})]:
+                coef = fit_virial(fluid, r, **kw)
+                ez, ecp, ehd, eh = accuracy(fluid, r, coef, a, 250, 400, 1e5, 3e7)
+                f.write(f"{name},{fit},{100*ez:.4g},{100*ecp:.4g},{ehd:.4g},{eh:.4g},{b_cp:.6g}\n")
+    return ALTERNATIVES
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--no-write", action="store_true", help="do not write the CSV fixtures")
     ap.add_argument("--fine-only", action="store_true", help="only write the fine-grid CSVs (no fit)")
+    ap.add_argument("--alternatives", action="store_true", help="only write gas_alternative_fits.csv")
     args = ap.parse_args()
+    if args.alternatives:
+        print("# wrote", write_alternatives())
+        return 0
     if args.fine_only:
         for name, (fluid, r) in GASES.items():
             print("# wrote", write_fine(name, fluid, r))
@@ -294,6 +346,8 @@ def main():
         if not args.no_write:
             print("# wrote", write_fixture(name, fluid, r, rows))
             print("# wrote", write_fine(name, fluid, r))
+            if name == "nitrogen":
+                print("# wrote", write_alternatives())
 
         # ---- Rust constants
         print(f"\n// {name}: NASA cp/R coefficients a1..a5 (T in K), fit 200-1000 K")
@@ -319,26 +373,12 @@ def main():
             f"{np.sqrt(np.mean(e_cp0**2)):.2e}, max abs {dcp_abs:.4f} J/(kg K); max |h0 err| {e_h0:.1f} J/kg"
         )
 
-        def check(tlo, thi, plo, phi):
-            # 5 K steps and 30 log-spaced pressures plus those of the fixture,
-            # so that the maxima bound what the Rust tests see on the fixture.
-            ts, ps = check_grid(tlo, thi, plo, phi)
-            st = [reference_state(fluid, r, t, p) for t in ts for p in ps]
-            t = np.array([s["T"] for s in st])
-            rho = np.array([s["rho"] for s in st])
-            z, cp, h, hdep = virial_props(coef, a, r, t, rho)
-            ez = np.abs(z / np.array([s["Z"] for s in st]) - 1).max()
-            ecp = np.abs(cp / np.array([s["cp"] for s in st]) - 1).max()
-            ehd = np.abs(hdep - np.array([s["h_dep"] for s in st])).max()
-            eh = np.abs(h - np.array([s["h"] for s in st])).max()
-            return ez, ecp, ehd, eh
-
         for label, rng in [
             ("250-400 K, 1-10 bar", (250, 400, 1e5, 1e6)),
             ("250-400 K, 1-300 bar", (250, 400, 1e5, 3e7)),
             ("200-500 K, 1-300 bar", (200, 500, 1e5, 3e7)),
         ]:
-            ez, ecp, ehd, eh = check(*rng)
+            ez, ecp, ehd, eh = accuracy(fluid, r, coef, a, *rng)
             table.append(f"| {name} | {label} | {100*ez:.3f} % | {100*ecp:.2f} % | {ehd:.0f} | {eh:.0f} |")
 
     print("\n| gas | range | max abs Z error | max abs cp error | max abs h departure error [J/kg] | max abs h error [J/kg] |")

@@ -119,7 +119,7 @@
 //! the subsonic phase.
 
 use crate::data::noise_sigma;
-use crate::lsq::{least_squares, Bounds, LsqError, LsqOptions};
+use crate::lsq::{least_squares, Bounds, JacobianUpdate, LsqError, LsqOptions};
 use crate::stats::autocorrelation;
 use blocks::iso6358::{ANR_DENSITY, ANR_TEMPERATURE};
 use gas::GasModel;
@@ -556,7 +556,7 @@ pub fn estimate_unloading_polytropic(
         Ok(t.iter().zip(p).map(|(&ti, &pi)| choked_pressure_polytropic(ti, p0, tau, n) - pi).collect())
     };
     let bounds = Bounds::new(vec![0.5, 1e-4], vec![2.0, 1e4]);
-    let opts = LsqOptions { parallel: false, ..LsqOptions::default() };
+    let opts = LsqOptions { parallel: false, jacobian: JacobianUpdate::FiniteDifference, ..LsqOptions::default() };
     let res = least_squares(f, &[1.0, 1.0], &bounds, &opts)?;
     let se = res.std_errors.clone().unwrap_or_else(|| vec![f64::NAN; 2]);
     let tau_u = res.x[1] * tau_scale;
@@ -907,6 +907,7 @@ impl FitContext<'_> {
             fd_rel_step: 1e-6,
             parallel: self.parallel,
             final_jacobian: true,
+            jacobian: JacobianUpdate::FiniteDifference,
         };
         let res = least_squares(f, &x0, &Bounds::new(lo, hi), &opts)?;
         let se = res.std_errors.clone().unwrap_or_else(|| vec![f64::NAN; x0.len()]);

@@ -17,7 +17,7 @@
 //! [`crate::stats::sandwich_covariance`], so that standard errors and
 //! confidence intervals account for correlated residuals.
 
-use crate::lsq::{least_squares_until, Bounds, GiveUp, LsqOptions};
+use crate::lsq::{least_squares_until, Bounds, GiveUp, JacobianUpdate, LsqOptions};
 use crate::problem::Problem;
 use crate::stats::{delta_ic, sandwich_covariance, BlockStats};
 
@@ -72,6 +72,9 @@ pub struct FitOptions {
     /// iterate (short-record stages, whose standard errors are never used;
     /// [`crate::lsq::LsqOptions::final_jacobian`]).
     pub covariance: bool,
+    /// Finite-difference Jacobians at every iterate or Broyden updates
+    /// between them ([`crate::lsq::JacobianUpdate`]).
+    pub jacobian: JacobianUpdate,
 }
 
 impl Default for FitOptions {
@@ -85,6 +88,7 @@ impl Default for FitOptions {
             horizons: vec![0.15, 0.4, 1.0],
             screen: None,
             covariance: true,
+            jacobian: JacobianUpdate::default(),
         }
     }
 }
@@ -235,6 +239,7 @@ pub fn fit_once_until(problem: &Problem, start: &[f64], opts: &FitOptions, give_
         fd_rel_step: opts.fd_step,
         parallel: opts.parallel,
         final_jacobian: opts.covariance,
+        jacobian: opts.jacobian,
     };
     let res = least_squares_until(f, &u0, &Bounds::new(lo.clone(), hi.clone()), &lsq_opts, give_up).map_err(|e| e.to_string())?;
     let values = problem.values_of(&res.x);

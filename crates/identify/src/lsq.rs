@@ -32,6 +32,35 @@
 //! point would leave the box. Columns are evaluated in parallel with rayon when
 //! `LsqOptions::parallel` is set (the residual function is `Sync`).
 //!
+//! With [`JacobianUpdate::FiniteDifference`] (the default) a fresh
+//! forward-difference Jacobian (`n` residual evaluations) is taken at every
+//! accepted iterate. With [`JacobianUpdate::Broyden`] the Jacobian is carried from
+//! one accepted iterate to the next by Broyden's rank-one secant update
+//! (Madsen, Nielsen & Tingleff, "Methods for non-linear least squares
+//! problems", 2nd ed. 2004, §3.4 "The L-M method with a secant Jacobian",
+//! eq. 3.33 and Algorithm 3.34; Broyden, Math. Comp. 19, 1965):
+//! `J ← J + (r(x+h) − r(x) − J·h)·hᵀ / (hᵀh)`, which costs no evaluation
+//! beyond the trial point. A fresh forward-difference Jacobian replaces the
+//! updated one when it is stale:
+//! * after `max_updates` consecutive updates;
+//! * when a step computed from an updated Jacobian is rejected (the refresh
+//!   rule of Powell's hybrid method, MINPACK `hybrd`: Moré, Garbow &
+//!   Hillstrom, "User guide for MINPACK-1", ANL-80-74, 1980) — the damping is
+//!   then left as it was, the failure being the Jacobian's;
+//! * before any stopping test may end the run (gradient, cost, step and the
+//!   caller's give-up test are passed only with the finite-difference
+//!   Jacobian at the iterate; a cost test met by a secant step makes one more
+//!   step from the fresh Jacobian), and at the last point when
+//!   `final_jacobian` is set, so the returned `jacobian` and the covariance
+//!   are the finite-difference ones at `x`. Without `final_jacobian`, a run
+//!   ended by the cost test returns the finite-difference Jacobian of the
+//!   previous iterate, from which its last step was computed.
+//!
+//! A step shorter than the finite-difference step in every coordinate
+//! does not update the Jacobian (its secant would be noisier than a
+//! difference column); the Jacobian of the previous iterate is kept. The
+//! Moré scaling `D` is taken from finite-difference Jacobians only.
+//!
 //! # Stopping tests (MINPACK-like, Moré 1978)
 //! * `gtol`: the largest cosine between `r` and a free column of `J`,
 //!   `maxⱼ |J_jᵀr| / (‖J_j‖·‖r‖) ≤ gtol` (scale free), or `cost = 0`;
@@ -39,7 +68,9 @@
 //!   the cost are both `≤ ftol`;
 //! * `xtol`: a step with `‖D·h‖ ≤ xtol·(xtol + ‖D·x‖)`;
 //! * `max_iter` step attempts (accepted or rejected) without the above:
-//!   `converged = false`.
+//!   `converged = false`. With Broyden updates only the attempts from a
+//!   finite-difference Jacobian count (the limit bounds the finite-difference
+//!   Jacobians as before); at most `max_updates` secant attempts follow each.
 //!
 //! # Covariance
 //! `cov = s²·(JᵀJ)⁻¹` with `s² = 2·cost/(m − n)` at the solution, using the full
@@ -58,6 +89,59 @@
 use nalgebra::{DMatrix, DVector};
 use rayon::prelude::*;
 use std::sync::atomic::{AtomicUsize, Ordering};
+
+/// How the Jacobian is obtained after the first (finite-difference) one;
+/// see the module documentation.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum JacobianUpdate {
+    /// A forward-difference Jacobian at every accepted iterate.
+    FiniteDifference,
+    /// Broyden rank-one updates between forward-difference Jacobians, at
+    /// most `max_updates` in a row.
+    Broyden { max_updates: usize },
+}
+
+impl Default for JacobianUpdate {
+    /// Finite differences at every iterate: on the discrepancy fits the
+    /// Broyden variant ends at other points (docs/discrepancy.md, "Speed").
+    fn default() -> Self {
+        JacobianUpdate::FiniteDifference
+    }
+}
+
+impl JacobianUpdate {
+    /// Broyden updates with a fresh finite-difference Jacobian at least
+    /// every 8 steps.
+    pub const BROYDEN: JacobianUpdate = JacobianUpdate::Broyden { max_updates: 8 };
+}
+
+/// Residual evaluations of all least-squares runs of this process, by use
+/// (run-time accounting of docs/discrepancy.md, "Speed").
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct Counts {
+    /// Runs of [`least_squares_until`].
+    pub runs: usize,
+    /// Evaluations at starting and trial points.
+    pub trials: usize,
+    /// Evaluations for finite-difference Jacobian columns.
+    pub columns: usize,
+    /// Finite-difference Jacobians computed.
+    pub jacobians: usize,
+    /// Broyden updates made.
+    pub updates: usize,
+}
+
+static RUNS: AtomicUsize = AtomicUsize::new(0);
+static TRIALS: AtomicUsize = AtomicUsize::new(0);
+static COLUMNS: AtomicUsize = AtomicUsize::new(0);
+static JACOBIANS: AtomicUsize = AtomicUsize::new(0);
+static UPDATES: AtomicUsize = AtomicUsize::new(0);
+
+/// [`Counts`] since the process started.
+pub fn counts() -> Counts {
+    let l = |a: &AtomicUsize| a.load(Ordering::Relaxed);
+    Counts { runs: l(&RUNS), trials: l(&TRIALS), columns: l(&COLUMNS), jacobians: l(&JACOBIANS), updates: l(&UPDATES) }
+}
 
 /// Box constraints `lo[i] ≤ x[i] ≤ hi[i]`; use `±f64::INFINITY` for "no bound".
 #[derive(Debug, Clone)]
@@ -81,7 +165,9 @@ impl Bounds {
 /// tolerances.
 #[derive(Debug, Clone)]
 pub struct LsqOptions {
-    /// Maximum number of step attempts (accepted or rejected).
+    /// Maximum number of step attempts (accepted or rejected) from a
+    /// finite-difference Jacobian (with [`JacobianUpdate::FiniteDifference`]:
+    /// all of them).
     pub max_iter: usize,
     /// Relative reduction of the cost below which the iteration stops.
     pub ftol: f64,
@@ -94,10 +180,15 @@ pub struct LsqOptions {
     /// Evaluate Jacobian columns in parallel (rayon).
     pub parallel: bool,
     /// Compute the Jacobian at the last point when the iteration limit ends
-    /// the run right after an accepted step (for the covariance). Without it
-    /// the result's `jacobian` and `covariance` are those of the previous
+    /// the run right after an accepted step (for the covariance; with
+    /// Broyden updates, also when the cost test does). Without it the
+    /// result's `jacobian` and `covariance` are those of the previous
     /// iterate (`x`, `cost` and `residuals` are the same either way).
+    /// With [`JacobianUpdate::Broyden`] it also makes the returned Jacobian
+    /// the finite-difference one at `x` when the limit ends the run.
     pub final_jacobian: bool,
+    /// Finite differences at every iterate, or Broyden updates between them.
+    pub jacobian: JacobianUpdate,
 }
 
 impl Default for LsqOptions {
@@ -110,6 +201,7 @@ impl Default for LsqOptions {
             fd_rel_step: f64::EPSILON.sqrt(),
             parallel: true,
             final_jacobian: true,
+            jacobian: JacobianUpdate::default(),
         }
     }
 }
@@ -133,6 +225,12 @@ pub struct LsqResult {
     pub iterations: usize,
     /// Residual evaluations made (including those for the Jacobian).
     pub evaluations: usize,
+    /// Of these, evaluations for finite-difference Jacobian columns.
+    pub column_evaluations: usize,
+    /// Finite-difference Jacobians computed.
+    pub jacobians: usize,
+    /// Broyden updates made.
+    pub updates: usize,
     /// Whether a stopping test (not the iteration limit) ended the run.
     pub converged: bool,
     /// Which test stopped the iteration.
@@ -158,6 +256,10 @@ struct Evaluator<'a, F> {
     f: &'a F,
     m: AtomicUsize,
     count: AtomicUsize,
+    /// Of `count`, those for Jacobian columns.
+    columns: AtomicUsize,
+    /// Finite-difference Jacobians computed.
+    jacobians: AtomicUsize,
 }
 
 impl<F> Evaluator<'_, F>
@@ -197,6 +299,7 @@ where
 {
     let n = x.len();
     let m = r0.len();
+    ev.jacobians.fetch_add(1, Ordering::Relaxed);
     let column = |j: usize| -> Result<Vec<f64>, LsqError> {
         let step = opts.fd_rel_step * x[j].abs().max(1.0);
         // Forward if it stays in the box, else backward; if one side fails to
@@ -228,6 +331,7 @@ where
             if hj == 0.0 {
                 continue;
             }
+            ev.columns.fetch_add(1, Ordering::Relaxed);
             match ev.eval(&xp) {
                 Ok(rp) => return Ok(rp.iter().zip(r0).map(|(a, b)| (a - b) / hj).collect()),
                 Err(e) => last_err = e,
@@ -243,6 +347,20 @@ where
         (0..n).map(column).collect::<Result<_, _>>()?
     };
     Ok(DMatrix::from_fn(m, n, |i, j| cols[j][i]))
+}
+
+/// Broyden's rank-one secant update (Madsen, Nielsen & Tingleff 2004,
+/// eq. 3.33): `J ← J + (r_new − r − J·h)·hᵀ / (hᵀh)`, so that afterwards
+/// `J·h = r_new − r` and `J·v` is unchanged for every `v ⟂ h`.
+fn broyden_update(jac: &mut DMatrix<f64>, h: &[f64], r: &[f64], r_new: &[f64]) {
+    let hv = DVector::from_column_slice(h);
+    let hh = hv.norm_squared();
+    if hh == 0.0 {
+        return;
+    }
+    let jh = &*jac * &hv;
+    let u = DVector::from_fn(r.len(), |i, _| (r_new[i] - r[i] - jh[i]) / hh);
+    jac.ger(1.0, &u, &hv, 1.0);
 }
 
 /// Solve `(A + μ·diag(d2))·h = b` (A symmetric positive semi-definite) by
@@ -341,7 +459,13 @@ where
         }
     };
 
-    let ev = Evaluator { f: &f, m: AtomicUsize::new(0), count: AtomicUsize::new(0) };
+    let ev = Evaluator {
+        f: &f,
+        m: AtomicUsize::new(0),
+        count: AtomicUsize::new(0),
+        columns: AtomicUsize::new(0),
+        jacobians: AtomicUsize::new(0),
+    };
     let mut x = x0.to_vec();
     project(&mut x);
     let mut r = ev.eval(&x).map_err(|message| LsqError::Residual { x: x.clone(), message })?;
@@ -351,12 +475,24 @@ where
     let m = r.len();
     ev.m.store(m, Ordering::Relaxed);
     let mut cost = half_sum_sq(&r);
-    let mut jac = jacobian(&ev, &x, &r, bounds, opts)?;
+    let fd = |x: &[f64], r: &[f64]| jacobian(&ev, x, r, bounds, opts);
+    let mut jac = fd(&x, &r)?;
+    // `exact`: `jac` is the finite-difference Jacobian at `x`; `since`:
+    // Broyden updates since the last finite-difference Jacobian.
+    let mut exact = true;
+    let mut since = 0;
+    let mut updates = 0;
+    let max_updates = match opts.jacobian {
+        JacobianUpdate::FiniteDifference => 0,
+        JacobianUpdate::Broyden { max_updates } => max_updates,
+    };
 
     let mut d2 = vec![0.0_f64; n]; // Moré scaling, squared
     let mut mu = 1e-3;
     let mut nu = 2.0;
     let mut iterations = 0;
+    // step attempts from finite-difference Jacobians: those the limit counts
+    let mut counted = 0;
     let mut converged = false;
     let mut message = String::from("iteration limit reached");
 
@@ -367,7 +503,9 @@ where
         let jtj = jac.transpose() * &jac;
         let col_norms: Vec<f64> = (0..n).map(|j| jac.column(j).norm()).collect();
         for j in 0..n {
-            d2[j] = d2[j].max(col_norms[j] * col_norms[j]);
+            if exact {
+                d2[j] = d2[j].max(col_norms[j] * col_norms[j]);
+            }
             if d2[j] == 0.0 {
                 d2[j] = 1.0;
             }
@@ -389,6 +527,12 @@ where
         }
         let gcos = free.iter().filter(|&&j| col_norms[j] > 0.0).map(|&j| g[j].abs() / (col_norms[j] * rnorm)).fold(0.0_f64, f64::max);
         if free.is_empty() || gcos <= opts.gtol {
+            // A stopping test met with an updated Jacobian is checked
+            // again with the finite-difference one at the same point.
+            if !exact {
+                (jac, exact, since) = (fd(&x, &r)?, true, 0);
+                continue 'outer;
+            }
             converged = true;
             message = format!("gradient test: max cosine {gcos:.3e} <= gtol");
             break;
@@ -407,6 +551,10 @@ where
                     }
                 }
                 if stop(&r, &lin) {
+                    if !exact {
+                        (jac, exact, since) = (fd(&x, &r)?, true, 0);
+                        continue 'outer;
+                    }
                     message = "given up: the Gauss–Newton model's minimum does not pass the test".into();
                     break 'outer;
                 }
@@ -415,10 +563,11 @@ where
 
         // Inner loop: try steps until one is accepted.
         loop {
-            if iterations >= opts.max_iter {
+            if counted >= opts.max_iter && exact {
                 break 'outer;
             }
             iterations += 1;
+            counted += exact as usize;
             let Some(hf) = damped_solve(&a, &d2f, mu, &b) else {
                 mu *= nu;
                 nu *= 2.0;
@@ -432,6 +581,10 @@ where
             let h: Vec<f64> = (0..n).map(|j| xt[j] - x[j]).collect();
             let dh_norm = h.iter().zip(&d2).map(|(v, d)| v * v * d).sum::<f64>().sqrt();
             if dh_norm <= opts.xtol * (opts.xtol + dx_norm) {
+                if !exact {
+                    (jac, exact, since) = (fd(&x, &r)?, true, 0);
+                    continue 'outer;
+                }
                 converged = true;
                 message = format!("step test: scaled step {dh_norm:.3e} below xtol");
                 break 'outer;
@@ -454,21 +607,53 @@ where
                 let Some(rt) = new_r else { continue };
                 let actual_rel = (cost - new_cost) / cost;
                 let pred_rel = pred / cost;
+                let r_old = std::mem::replace(&mut r, rt);
                 x = xt;
-                r = rt;
                 cost = new_cost;
                 mu *= (1.0_f64 / 3.0).max(1.0 - (2.0 * rho - 1.0).powi(3));
                 nu = 2.0;
                 let cost_test = actual_rel <= opts.ftol && pred_rel <= opts.ftol;
-                if !opts.final_jacobian && !cost_test && iterations >= opts.max_iter {
+                let last = !cost_test && counted >= opts.max_iter && since >= max_updates;
+                if !opts.final_jacobian && last {
+                    exact = false;
                     break 'outer;
                 }
-                jac = jacobian(&ev, &x, &r, bounds, opts)?;
-                if cost_test {
+                // An updated Jacobian from here on, unless this step meets
+                // the cost test (converged only if its step was predicted by
+                // a finite-difference Jacobian), the limit ends the run, or
+                // the update is due for a refresh.
+                let secant_step = !exact;
+                if !cost_test && !last && since < max_updates {
+                    let long = h.iter().zip(&x).any(|(hj, xj)| hj.abs() >= opts.fd_rel_step * xj.abs().max(1.0));
+                    if long {
+                        broyden_update(&mut jac, &h, &r_old, &r);
+                        updates += 1;
+                    }
+                    (exact, since) = (false, since + 1);
+                    continue 'outer;
+                }
+                if cost_test && !secant_step && max_updates > 0 && !opts.final_jacobian {
+                    // converged on a step from a finite-difference Jacobian;
+                    // the Jacobian at the new point is wanted by nobody
+                    converged = true;
+                    exact = false;
+                    message = format!("cost test: relative reduction {actual_rel:.3e} <= ftol");
+                    break 'outer;
+                }
+                (jac, exact, since) = (fd(&x, &r)?, true, 0);
+                if cost_test && !secant_step {
                     converged = true;
                     message = format!("cost test: relative reduction {actual_rel:.3e} <= ftol");
                     break 'outer;
                 }
+                continue 'outer;
+            }
+            if !exact {
+                // A step of an updated Jacobian failed: refresh it, keep μ.
+                if counted >= opts.max_iter {
+                    break 'outer;
+                }
+                (jac, exact, since) = (fd(&x, &r)?, true, 0);
                 continue 'outer;
             }
             mu *= nu;
@@ -479,10 +664,21 @@ where
             }
         }
     }
+    if opts.final_jacobian && !exact {
+        jac = fd(&x, &r)?;
+    }
 
     let covariance = covariance(&jac, cost);
     let std_errors = covariance.as_ref().map(|c| (0..n).map(|i| c[(i, i)].max(0.0).sqrt()).collect());
     let at_bound = (0..n).map(|i| on_bound(x[i], bounds.lo[i]) || on_bound(x[i], bounds.hi[i])).collect();
+    let evaluations = ev.count.load(Ordering::Relaxed);
+    let column_evaluations = ev.columns.load(Ordering::Relaxed);
+    let jacobians = ev.jacobians.load(Ordering::Relaxed);
+    RUNS.fetch_add(1, Ordering::Relaxed);
+    TRIALS.fetch_add(evaluations - column_evaluations, Ordering::Relaxed);
+    COLUMNS.fetch_add(column_evaluations, Ordering::Relaxed);
+    JACOBIANS.fetch_add(jacobians, Ordering::Relaxed);
+    UPDATES.fetch_add(updates, Ordering::Relaxed);
     Ok(LsqResult {
         x,
         cost,
@@ -491,7 +687,10 @@ where
         covariance,
         std_errors,
         iterations,
-        evaluations: ev.count.load(Ordering::Relaxed),
+        evaluations,
+        column_evaluations,
+        jacobians,
+        updates,
         converged,
         message,
         at_bound,
@@ -506,6 +705,86 @@ mod tests {
 
     fn opts(parallel: bool) -> LsqOptions {
         LsqOptions { parallel, ..LsqOptions::default() }
+    }
+
+    fn broyden_opts(parallel: bool) -> LsqOptions {
+        LsqOptions { jacobian: JacobianUpdate::BROYDEN, ..opts(parallel) }
+    }
+
+    type Residuals<'a> = Box<dyn Fn(&[f64]) -> Result<Vec<f64>, String> + Sync + 'a>;
+
+    /// The test problems of this module: name, residuals, start, bounds.
+    fn problems() -> Vec<(&'static str, Residuals<'static>, Vec<f64>, Bounds)> {
+        let mut rng = Normal::new(42);
+        let t: Vec<f64> = (0..120).map(|i| i as f64 * 0.03).collect();
+        let y: Vec<f64> = t.iter().map(|&ti| 2.0 * (-ti / 0.7).exp() + 0.3 + 0.02 * rng.normal()).collect();
+        let decay: Residuals =
+            Box::new(move |p: &[f64]| Ok(t.iter().zip(&y).map(|(&ti, &yi)| p[0] * (-ti / p[1]).exp() + p[2] - yi).collect()));
+        let t: Vec<f64> = (0..10).map(|i| i as f64).collect();
+        let line: Residuals = Box::new(move |p: &[f64]| Ok(t.iter().map(|ti| p[0] * ti + p[1] - (2.0 * ti + 1.0)).collect()));
+        vec![
+            ("rosenbrock", Box::new(|x: &[f64]| Ok(vec![10.0 * (x[1] - x[0] * x[0]), 1.0 - x[0]])), vec![-1.2, 1.0], Bounds::unbounded(2)),
+            ("decay", decay, vec![1.0, 2.0, 0.0], Bounds::new(vec![0.0, 1e-3, -10.0], vec![10.0, 10.0, 10.0])),
+            ("line on a bound", line, vec![0.5, 0.0], Bounds::new(vec![0.0, -100.0], vec![1.5, 100.0])),
+            ("cubic", Box::new(|x: &[f64]| Ok(vec![x[0].powi(3) - 1.9f64.powi(3)])), vec![0.1], Bounds::unbounded(1)),
+        ]
+    }
+
+    #[test]
+    fn broyden_updates_reach_the_finite_difference_optimum_with_fewer_evaluations() {
+        for (name, f, x0, b) in problems() {
+            let fd = least_squares(&f, &x0, &b, &opts(false)).expect("solve");
+            let secant = least_squares(&f, &x0, &b, &broyden_opts(false)).expect("solve");
+            assert!(fd.converged && secant.converged, "{name}: {} / {}", fd.message, secant.message);
+            for (a, c) in fd.x.iter().zip(&secant.x) {
+                assert!((a - c).abs() <= 1e-6 * a.abs().max(1.0), "{name}: {:?} vs {:?}", fd.x, secant.x);
+            }
+            assert!(secant.cost <= fd.cost * (1.0 + 1e-9) + 1e-16, "{name}: cost {} vs {}", secant.cost, fd.cost);
+            assert!(secant.updates > 0 && fd.updates == 0, "{name}: {} updates", secant.updates);
+            assert!(
+                secant.evaluations < fd.evaluations && secant.jacobians < fd.jacobians,
+                "{name}: {} evaluations ({} Jacobians) against {} ({})",
+                secant.evaluations,
+                secant.jacobians,
+                fd.evaluations,
+                fd.jacobians
+            );
+            assert_eq!(fd.evaluations - fd.column_evaluations, fd.iterations + 1 - fd.message.starts_with("step test") as usize, "{name}");
+        }
+    }
+
+    #[test]
+    fn broyden_returns_the_finite_difference_jacobian_at_its_last_point() {
+        let (_, f, x0, b) = problems().swap_remove(1);
+        let fd_at = |x: &[f64], r: &[f64], o: &LsqOptions| {
+            let ev = Evaluator {
+                f: &f,
+                m: AtomicUsize::new(r.len()),
+                count: AtomicUsize::new(0),
+                columns: AtomicUsize::new(0),
+                jacobians: AtomicUsize::new(0),
+            };
+            jacobian(&ev, x, r, &b, o).expect("jacobian")
+        };
+        // converged: the Jacobian and covariance are those of differences at the solution
+        let o = broyden_opts(true);
+        let res = least_squares(&f, &x0, &b, &o).expect("fit");
+        assert!(res.converged && res.updates > 0, "{} ({} updates)", res.message, res.updates);
+        let j = fd_at(&res.x, &res.residuals, &o);
+        assert_eq!(res.jacobian, j);
+        assert_eq!(res.covariance, covariance(&j, res.cost));
+        // cut by the iteration limit right after secant steps: recomputed too ...
+        let cut = LsqOptions { max_iter: 5, ..o.clone() };
+        let res = least_squares(&f, &x0, &b, &cut).expect("fit");
+        assert!(!res.converged && res.updates > 0, "{} ({} updates)", res.message, res.updates);
+        let j = fd_at(&res.x, &res.residuals, &o);
+        assert_eq!(res.jacobian, j);
+        // ... which the updated Jacobian is not: without `final_jacobian` it is returned as it is
+        let kept = least_squares(&f, &x0, &b, &LsqOptions { final_jacobian: false, ..cut }).expect("fit");
+        assert_eq!(kept.x, res.x);
+        let worst = (0..j.ncols()).map(|c| (kept.jacobian.column(c) - j.column(c)).norm() / j.column(c).norm()).fold(0.0, f64::max);
+        assert!(worst > 1e-3, "the updated Jacobian is the difference one ({worst:e}): the test above proves nothing");
+        assert_eq!(kept.evaluations + 3, res.evaluations);
     }
 
     #[test]

@@ -53,6 +53,11 @@ fn run(case: Case, seed: u64, variation: Variation, cycles: usize) -> (truth::Tr
             eprintln!("[{:7.1} s, {n:6} sims] {m}", clock.elapsed().as_secs_f64())
         });
     }
+    // LSQ_JACOBIAN=broyden: Broyden updates between finite-difference
+    // Jacobians in every fit (identify::lsq::JacobianUpdate; a study)
+    if std::env::var("LSQ_JACOBIAN").is_ok_and(|s| s == "broyden") {
+        options.fit.jacobian = identify::lsq::JacobianUpdate::BROYDEN;
+    }
     if std::env::var("SENSORS").is_ok_and(|s| s == "offset") {
         options.sensors.gain = false;
         options.sensors.skew = 0.0;
@@ -185,8 +190,10 @@ fn profile_run() {
     let case = std::env::var("CASES").ok().and_then(|c| Case::ALL.into_iter().find(|k| k.name() == c)).unwrap_or(Case::Null);
     let variation = if std::env::var("VARIATION").is_ok_and(|v| v == "varied") { Variation::Varied } else { Variation::Nominal };
     let (s0, w0, _) = identify::problem::simulation_count();
+    let l0 = identify::lsq::counts();
     let clock = std::time::Instant::now();
     let (t, o) = run(case, first_seed(), variation, 3);
+    let l1 = identify::lsq::counts();
     let seconds = clock.elapsed().as_secs_f64();
     let (s1, w1, d1) = identify::problem::simulation_count();
     eprintln!("{}\n{}", t.description, table(&o));
@@ -199,6 +206,14 @@ fn profile_run() {
         1e3 * (w1 - w0) / (s1 - s0).max(1) as f64,
         w1 - w0,
         o.summary.evaluations
+    );
+    eprintln!(
+        "least squares: {} runs, {} evaluations at start and trial points, {} for {} finite-difference Jacobians, {} Broyden updates",
+        l1.runs - l0.runs,
+        l1.trials - l0.trials,
+        l1.columns - l0.columns,
+        l1.jacobians - l0.jacobians,
+        l1.updates - l0.updates
     );
     eprintln!("stages: {:?}", o.summary.timing);
     for c in &o.summary.candidates {
