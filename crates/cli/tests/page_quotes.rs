@@ -11,20 +11,9 @@ mod common;
 #[allow(dead_code)]
 mod tube_convergence;
 
-use common::numbers::{pieces, Piece};
+use common::numbers::numbers_in as numbers;
 use common::quotes::Page;
 use std::f64::consts::PI;
-
-/// The numbers of a line, in order.
-fn numbers(line: &str) -> Vec<f64> {
-    pieces(line)
-        .into_iter()
-        .filter_map(|p| match p {
-            Piece::Number(x, _) => Some(x),
-            Piece::Text(_) => None,
-        })
-        .collect()
-}
 
 /// The closed form of docs/linearize.md's "paper's cylinder at mid-stroke"
 /// (the inputs its first paragraph states: bore 45 mm, rod 15 mm, x = 225

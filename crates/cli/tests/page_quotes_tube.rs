@@ -18,7 +18,7 @@ mod common;
 #[allow(dead_code)]
 mod tube_convergence;
 
-use common::numbers::{mismatch, pieces, Piece};
+use common::numbers::{mismatch, numbers_in as numbers};
 use common::quotes::Page;
 
 const STUDY: &str = "docs/data/tube_convergence.txt";
@@ -31,17 +31,6 @@ fn committed() -> Vec<String> {
 /// the typographic minus read as -.
 fn data_rows<'a>(lines: impl Iterator<Item = &'a str>) -> Vec<String> {
     lines.map(|l| l.trim().replace('−', "-")).filter(|l| l.starts_with("| ") && l[2..].starts_with(|c: char| c.is_ascii_digit())).collect()
-}
-
-/// The numbers of a line, in order.
-fn numbers(line: &str) -> Vec<f64> {
-    pieces(line)
-        .into_iter()
-        .filter_map(|p| match p {
-            Piece::Number(x, _) => Some(x),
-            Piece::Text(_) => None,
-        })
-        .collect()
 }
 
 #[test]

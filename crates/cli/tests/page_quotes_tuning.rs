@@ -8,19 +8,8 @@
 
 mod common;
 
-use common::numbers::{pieces, Piece};
+use common::numbers::numbers_in as numbers;
 use common::quotes::Page;
-
-/// The numbers of a line, in order.
-fn numbers(line: &str) -> Vec<f64> {
-    pieces(line)
-        .into_iter()
-        .filter_map(|p| match p {
-            Piece::Number(x, _) => Some(x),
-            Piece::Text(_) => None,
-        })
-        .collect()
-}
 
 /// The page's output lines, read by their start.
 struct Outputs(Vec<String>);

@@ -11,6 +11,18 @@ pub enum Piece {
     Number(f64, String),
 }
 
+/// The numbers of a line, in order (its text left out).
+#[allow(dead_code)] // not every test binary that includes this file uses it
+pub fn numbers_in(line: &str) -> Vec<f64> {
+    pieces(line)
+        .into_iter()
+        .filter_map(|p| match p {
+            Piece::Number(x, _) => Some(x),
+            Piece::Text(_) => None,
+        })
+        .collect()
+}
+
 pub fn pieces(line: &str) -> Vec<Piece> {
     let mut out = Vec::new();
     let mut text = String::new();
