@@ -16,7 +16,7 @@ mod common;
 mod paper_study;
 
 use common::quotes::Page;
-use paper_study::{misfits, run, sets_of, table, worst, Outcome, EARLIER_FIT, SWITCHES};
+use paper_study::{misfits, run, sets_of, table, worst, Outcome, EARLIER_FIT, ONE_AT_A_TIME, SWITCHES};
 use solve::SimResult;
 
 fn validation() -> Page {
@@ -129,17 +129,7 @@ fn validation_md_s_shipped_and_one_at_a_time_tables_are_what_the_study_gives() {
     page.says("the extend-stroke indices are", &[Some(switch_2.n_head_extend), Some(switch_2.n_rod_extend)]);
 
     // one change at a time: "| `tau_thermal=0.5 s` | 2.337 s, −6.0 % | 19.957 s, −5.4 % | 240.7 K |"
-    let changes = [
-        "tau_thermal=0.5 s",
-        "dead_volume=100 cm3",
-        "piston.mass=10 kg",
-        "friction.k0=50 N",
-        "friction.k1=1e-4 N/Pa",
-        "friction.k2=300 N s/m",
-        "friction.k3=1e-3 N s/(m Pa)",
-        "controller.dwell_retracted=1 s",
-    ];
-    for change in changes {
+    for change in ONE_AT_A_TIME {
         let runs = |c: f64| {
             let throttle = format!("flow_control.C={c} L/min/bar");
             let four = run(&base, &[change.to_string(), throttle.clone()]).expect(change);
