@@ -303,19 +303,22 @@ fn between(times: &[f64], values: &[Option<f64>], k: usize, t: f64, curve: impl 
 }
 
 /// Robust white-noise standard deviation of one channel (see the module
-/// header); `None` if fewer than 10 usable triples.
+/// header); `None` if fewer than 10 usable triples. The triples are
+/// consecutive samples *of this channel*: a row where it is missing (another
+/// channel logged at its own instants, as in a file that merges a pressure
+/// logger's and a thermocouple's records) is skipped, not a break.
 pub fn noise_sigma(times: &[f64], values: &[Option<f64>]) -> Option<f64> {
+    let (times, values): (Vec<f64>, Vec<f64>) = times.iter().zip(values).filter_map(|(&t, v)| v.map(|v| (t, v))).unzip();
     let mut d = Vec::with_capacity(values.len());
     for i in 1..values.len().saturating_sub(1) {
-        if let (Some(a), Some(b), Some(c)) = (values[i - 1], values[i], values[i + 1]) {
-            let span = times[i + 1] - times[i - 1];
-            if span <= 0.0 {
-                continue;
-            }
-            let w = (times[i + 1] - times[i]) / span;
-            let dev = b - (w * a + (1.0 - w) * c);
-            d.push(dev.abs() / (1.0 + w * w + (1.0 - w) * (1.0 - w)).sqrt());
+        let (a, b, c) = (values[i - 1], values[i], values[i + 1]);
+        let span = times[i + 1] - times[i - 1];
+        if span <= 0.0 {
+            continue;
         }
+        let w = (times[i + 1] - times[i]) / span;
+        let dev = b - (w * a + (1.0 - w) * c);
+        d.push(dev.abs() / (1.0 + w * w + (1.0 - w) * (1.0 - w)).sqrt());
     }
     if d.len() < 10 {
         return None;

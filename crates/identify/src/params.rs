@@ -221,11 +221,13 @@ pub const CRITICAL_RATIO_BOUNDS: (f64, f64) = (0.05, 0.9);
 
 /// The initial state of every rigid vessel whose pressure or temperature
 /// is measured, one parameter per experiment: "the data's first samples fix
-/// the initial state". p0 (T0) starts at the mean of the channel's first
-/// three samples, with a prior there of σ = the sensor's offset prior (a
-/// sensor offset and a wrong initial state are otherwise the same thing at
-/// t = 0), bounded at ±6 σ. Without them the sensor offsets would have to
-/// absorb a netlist initial state that differs from the rig's.
+/// the initial state". p0 (T0) starts at the channel's first sample, with a
+/// prior there (`initial_state_prior`) whose σ combines the sensor's offset
+/// prior (a sensor offset and a wrong initial state are otherwise the same
+/// thing at t = 0), its noise and how far the state can have moved before
+/// that sample, bounded at ±6 σ (and above zero). Without them the sensor
+/// offsets would have to absorb a netlist initial state that differs from
+/// the rig's.
 pub fn initial_state_params(flat: &FlatNetlist, experiments: &[Experiment]) -> Vec<FitParam> {
     let topo = crate::netlist_edit::Topology::of(flat);
     let mut out = Vec::new();
@@ -233,12 +235,8 @@ pub fn initial_state_params(flat: &FlatNetlist, experiments: &[Experiment]) -> V
         for (signal, param, unit) in [("p", "p0", "bar"), ("T", "T0", "K")] {
             for (k, e) in experiments.iter().enumerate() {
                 let Some(ch) = e.channels.iter().find(|c| c.signal == format!("{v}.{signal}")) else { continue };
-                let first: Vec<f64> = ch.values.iter().flatten().take(3).copied().collect();
-                if first.is_empty() {
-                    continue;
-                }
-                let center = first.iter().sum::<f64>() / first.len() as f64;
-                let sd = ch.prior.as_ref().map(|p| p.offset_sd).filter(|s| s.is_finite() && *s > 0.0).unwrap_or(ch.sigma).max(ch.sigma);
+                let offset_sd = ch.prior.as_ref().map(|p| p.offset_sd).filter(|s| s.is_finite() && *s > 0.0).unwrap_or(ch.sigma);
+                let Some(Prior { center, sd }) = initial_state_prior(&e.times, &ch.values, offset_sd, ch.sigma) else { continue };
                 let (lo, hi) = ((center - 6.0 * sd).max(1e-3 * center.abs()), center + 6.0 * sd);
                 out.push(FitParam {
                     name: if experiments.len() == 1 { format!("{v}.{param}") } else { format!("{v}.{param}@{}", e.name) },
@@ -256,6 +254,28 @@ pub fn initial_state_params(flat: &FlatNetlist, experiments: &[Experiment]) -> V
         }
     }
     out
+}
+
+/// Prior of a vessel's initial p0 or T0 from its channel's first samples:
+/// centred on the first sample, with σ² = offset_sd² + noise² + Δ², where
+/// Δ = |y₂ − y₁|·t₁/(t₂ − t₁) is the change the channel's first step says
+/// the state can have made between t = 0 and that first sample at t₁. On a
+/// record logged from t = 0 at a high rate Δ is nil and the prior is the
+/// sensor's; on a sparse record (a vessel test read every few seconds, a
+/// curve digitised from a paper) the first sample can be seconds into a
+/// blowdown, and a prior as narrow as the sensor's would pin the initial
+/// state to where the gas already was at t₁ (a filling's first temperature
+/// sample 0.04 s in, a blowdown's 3.6 s in, 12 K below the start). `None`
+/// without any sample.
+pub fn initial_state_prior(times: &[f64], values: &[Option<f64>], offset_sd: f64, noise: f64) -> Option<Prior> {
+    let mut present = times.iter().zip(values).filter_map(|(&t, v)| v.map(|v| (t, v)));
+    let (t1, y1) = present.next()?;
+    let moved = match present.next() {
+        Some((t2, y2)) if t2 > t1 => (y2 - y1).abs() * t1.max(0.0) / (t2 - t1),
+        _ => 0.0,
+    };
+    let sd = (offset_sd * offset_sd + noise * noise + moved * moved).sqrt();
+    Some(Prior { center: y1, sd: if sd > 0.0 && sd.is_finite() { sd } else { noise.max(f64::MIN_POSITIVE) } })
 }
 
 /// Turn calibration targets into fit parameters, one per distinct setting

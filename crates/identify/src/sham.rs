@@ -260,13 +260,60 @@ pub fn fit_sham(base: &FlatNetlist, experiments: &[Experiment], current: &Struct
         }
         constants.push(constant);
     }
-    let jac = &current.fit.jacobian;
-    let mut basis: Vec<Vec<f64>> =
-        if jac.nrows() == m { (0..jac.ncols()).map(|c| jac.column(c).iter().copied().collect()).collect() } else { Vec::new() };
+    // which bound a parameter sits on (true: the lower one)
+    let sides: Vec<Option<bool>> = (0..current.params.len())
+        .map(|i| {
+            let (p, v) = (&current.params[i], current.fit.values.get(i).copied()?);
+            current.fit.at_bound.get(i).copied().unwrap_or(false).then(|| (v - p.lo).abs() <= (p.hi - v).abs())
+        })
+        .collect();
+    let mut basis = refit_basis(&current.fit.jacobian, &sides, &r, &constants);
     basis.extend(constants);
     let (residuals, columns) = greedy(&r, basis, pool, max_k);
     let stats = residuals.iter().map(|x| block_stats(&problem, x)).collect();
     Ok(Sham { stats, columns })
+}
+
+/// The columns of the linear calibration refit: the fit Jacobian's, less
+/// those of parameters at a bound that the refit would move past it. The
+/// candidate's refit is bounded; an unbounded linear step would credit the
+/// sham with moving a parameter beyond its bound (on a vessel filling whose
+/// adiabatic baseline sits with C, b and m at their bounds, that step alone
+/// lowered χ² by more than the missing heat exchange did). An active set
+/// in the manner of Lawson & Hanson's NNLS (1974, ch. 23): solve the
+/// unbounded least squares min |r + [J, K]·δ| with the kept columns and
+/// the per-block constants K, drop every at-bound column whose step points
+/// outward, repeat. `sides[i]`: `Some(true)` at the lower bound,
+/// `Some(false)` at the upper, `None` inside (fit coordinates increase with
+/// the value on every scale). A column moving inward stays, so the sham
+/// keeps every move the bounded refit could make to first order.
+fn refit_basis(jacobian: &nalgebra::DMatrix<f64>, sides: &[Option<bool>], r: &[f64], constants: &[Vec<f64>]) -> Vec<Vec<f64>> {
+    let rows = r.len();
+    if jacobian.nrows() != rows {
+        return Vec::new();
+    }
+    let mut kept: Vec<usize> = (0..jacobian.ncols()).collect();
+    loop {
+        let q = kept.len() + constants.len();
+        if kept.is_empty() || q > rows {
+            break;
+        }
+        let a =
+            nalgebra::DMatrix::from_fn(rows, q, |i, j| if j < kept.len() { jacobian[(i, kept[j])] } else { constants[j - kept.len()][i] });
+        let rhs = nalgebra::DVector::from_iterator(rows, r.iter().map(|x| -x));
+        let Ok(step) = a.svd(true, true).solve(&rhs, 1e-12) else { break };
+        let outward = |j: usize| match sides.get(kept[j]).copied().flatten() {
+            Some(true) => step[j] < 0.0,
+            Some(false) => step[j] > 0.0,
+            None => false,
+        };
+        let before = kept.len();
+        kept = (0..kept.len()).filter(|&j| !outward(j)).map(|j| kept[j]).collect();
+        if kept.len() == before {
+            break;
+        }
+    }
+    kept.into_iter().map(|c| jacobian.column(c).iter().copied().collect()).collect()
 }
 
 #[cfg(test)]
@@ -313,6 +360,23 @@ mod tests {
         assert_eq!(sham.failure(&reference, 1, bar - 1.0), None);
         // beyond the largest sham computed, the largest is the bar
         assert_eq!(sham.delta_ic(&reference, 5), sham.delta_ic(&reference, 2));
+    }
+
+    #[test]
+    fn a_parameter_at_its_bound_leaves_the_refit_only_when_it_would_move_past_it() {
+        // r = −(2·col0 − 1·col1): the unbounded refit steps +2 along col0, −1 along col1
+        let jac = nalgebra::DMatrix::from_row_slice(3, 2, &[1.0, 0.0, 0.0, 1.0, 1.0, 1.0]);
+        let r = [-2.0, 1.0, -1.0];
+        let cols = |sides: &[Option<bool>]| refit_basis(&jac, sides, &r, &[]);
+        assert_eq!(cols(&[None, None]).len(), 2);
+        // col0 at its lower bound moves inward (+2): kept; at its upper bound: dropped
+        assert_eq!(cols(&[Some(true), None]).len(), 2);
+        assert_eq!(cols(&[Some(false), None]), vec![vec![0.0, 1.0, 1.0]]);
+        // col1 at its lower bound would move outward (−1): dropped
+        assert_eq!(cols(&[None, Some(true)]), vec![vec![1.0, 0.0, 1.0]]);
+        assert_eq!(cols(&[Some(false), Some(true)]).len(), 0);
+        // a Jacobian of another size contributes nothing
+        assert!(refit_basis(&jac, &[None, None], &[0.0; 4], &[]).is_empty());
     }
 
     #[test]
