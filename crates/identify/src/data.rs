@@ -13,7 +13,8 @@
 //!
 //! # Noise estimate (per channel)
 //! Each interior sample is compared with the straight line through its two
-//! neighbours: d_i = y_i − (w·y_{i−1} + (1 − w)·y_{i+1}), w = (t_{i+1} − t_i)/(t_{i+1} − t_{i−1}).
+//! neighbours in the same channel (rows where the channel is empty are
+//! skipped): d_i = y_i − (w·y_{i−1} + (1 − w)·y_{i+1}), w = (t_{i+1} − t_i)/(t_{i+1} − t_{i−1}).
 //! For white noise of standard deviation σ on a signal that is locally
 //! linear, Var d_i = σ²·(1 + w² + (1 − w)²) (= 1.5 σ² for even sampling).
 //! The estimate is robust to the few samples where the signal is not
