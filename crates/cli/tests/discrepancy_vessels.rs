@@ -17,22 +17,19 @@
 
 mod common;
 
-use common::{repo, Scratch};
+use common::{pneumo_in, repo, Scratch};
 use serde_json::Value;
 use std::path::PathBuf;
-use std::process::Command;
 
 fn vessels() -> PathBuf {
     repo().join("models/examples/vessels")
 }
 
-/// `pneumo discrepancy MODEL --experiments <case>_experiments.json --json`.
+/// `pneumo discrepancy MODEL --experiments <case>_experiments.json --json`
+/// (the shared runner: a hang fails the test after 60 s).
 fn diagnose(model: &std::path::Path, case: &str) -> Value {
     let manifest = vessels().join(format!("{case}_experiments.json"));
-    let out = Command::new(env!("CARGO_BIN_EXE_pneumo"))
-        .args(["discrepancy", model.to_str().unwrap(), "--experiments", manifest.to_str().unwrap(), "--json"])
-        .output()
-        .expect("run pneumo");
+    let out = pneumo_in(&vessels(), &["discrepancy", model.to_str().unwrap(), "--experiments", manifest.to_str().unwrap(), "--json"]);
     assert!(out.status.success(), "{case}: {}", String::from_utf8_lossy(&out.stderr));
     serde_json::from_slice(&out.stdout).unwrap_or_else(|e| panic!("{case}: --json output: {e}"))
 }
