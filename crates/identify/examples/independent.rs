@@ -107,6 +107,10 @@ fn main() -> Result<(), String> {
     if std::env::var("RECENTRE").is_ok() {
         options.recentre = true;
     }
+    // SCREEN_ITER=n: step attempts per short-record stage of a candidate (Options::screen_iter)
+    if let Some(n) = std::env::var("SCREEN_ITER").ok().and_then(|s| s.parse().ok()) {
+        options.screen_iter = n;
+    }
     if std::env::var("NOGAIN").is_ok() {
         options.sensors.gain = false;
     }

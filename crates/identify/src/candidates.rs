@@ -40,7 +40,10 @@
 //! ([`ScreenStop`], [`crate::lsq::least_squares_until`]): the minimum of its
 //! Gauss–Newton model ‖r + J·h‖² over the free parameters (bounds ignored)
 //! would lower the short-record ΔIC by less than `ic` and leave it at or
-//! above [`GIVE_UP_DIC`] = 0. Why a candidate that would have passed the
+//! above [`GIVE_UP_DIC`] = 0, both ΔICs counting the blocks by the
+//! iterate's effective sample sizes (the prospect's residuals would
+//! otherwise be weighted by their own autocorrelation, a different
+//! criterion: [`ScreenStop`] says what that cost). Why a candidate that would have passed the
 //! screen (ΔIC < −`ic`) still passes: each remaining Levenberg–Marquardt
 //! step is a damped, bounded step of that same model, whose decrease it
 //! predicts; to pass, the remaining steps would have to beat the model's
