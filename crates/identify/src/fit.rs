@@ -118,9 +118,10 @@ impl ScreenStop {
     /// autocorrelation compared two criteria, not two fits: at varied
     /// heat_transfer seed 1's nested start (rate 0) the model promised
     /// χ² 13 046 → 9 771, its own sizes scored that +23.5 and the screen
-    /// stopped at rate 0; on the iterate's sizes it scores −90, the fit
-    /// went on to rate 0.20 and a short-record ΔIC of −463, and
-    /// heat_transfer was named (rate 0.239 1/s, truth 0.2375).
+    /// stopped at rate 0; on the iterate's sizes it scores about −90
+    /// (worked by hand from the printed block sums), the fit went on to
+    /// rate 0.20 and a short-record ΔIC of −463, and heat_transfer was
+    /// named (rate 0.239 1/s, truth 0.2375).
     fn stops(&self, problem: &Problem, r: &[f64], lin: &[f64]) -> bool {
         let now = block_stats(problem, r);
         let prospect = block_stats(problem, lin);
