@@ -9,7 +9,10 @@
 //!    current fit, on the first part of the records (the last short horizon).
 //! 2. From the best grid point (the best `starts` for effects with shape
 //!    parameters) fit calibration and effect parameters together on the short
-//!    records (shape parameters held); the best result is kept.
+//!    records (shape parameters held); the best result is kept. A short
+//!    stage whose result raises the next horizon's χ² more than
+//!    [`crate::fit::STAGE_WRECKS`]-fold is dropped, the next stage starting
+//!    where it began ([`crate::fit::fit_short_stages`]).
 //! 3. Its **short-record ΔIC** against the current model (both fitted on the
 //!    same short records; effective sample sizes, [`crate::stats`]) decides
 //!    the screen.
