@@ -154,5 +154,7 @@ fn main() -> Result<(), String> {
     }
     println!("grade {:?}", s.grade);
     println!("{} simulations, {:.1} s, {:?}", s.evaluations, s.seconds, s.timing);
+    let (runs, busy, _) = identify::problem::simulation_count();
+    println!("{runs} experiment simulations, {busy:.1} s of them summed over threads");
     Ok(())
 }

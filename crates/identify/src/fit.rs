@@ -19,6 +19,7 @@
 
 use crate::lsq::{least_squares_until, Bounds, GiveUp, JacobianUpdate, LsqOptions};
 use crate::problem::Problem;
+use crate::reuse::RowCache;
 use crate::stats::{delta_ic, sandwich_covariance, BlockStats};
 
 /// Result of one fit.
@@ -254,7 +255,9 @@ pub fn fit_once_until(problem: &Problem, start: &[f64], opts: &FitOptions, give_
     let lo: Vec<f64> = problem.params.iter().map(|p| p.to_u(p.lo)).collect();
     let hi: Vec<f64> = problem.params.iter().map(|p| p.to_u(p.hi)).collect();
     let u0: Vec<f64> = problem.params.iter().zip(start).map(|(p, &v)| p.to_u(v.clamp(p.lo, p.hi))).collect();
-    let f = |u: &[f64]| problem.residuals(&problem.values_of(u));
+    // a Jacobian column that does not reach an experiment reuses its rows (crate::reuse)
+    let cache = RowCache::for_coordinates(problem.params.len());
+    let f = |u: &[f64]| problem.residuals_reusing(u, &cache);
     if problem.params.is_empty() {
         let r = f(&[])?;
         let chi2 = r.iter().map(|x| x * x).sum();

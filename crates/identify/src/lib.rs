@@ -48,6 +48,7 @@ pub mod params;
 pub mod phases;
 pub mod problem;
 pub mod report;
+pub mod reuse;
 pub mod rng;
 pub mod selection;
 pub mod sham;

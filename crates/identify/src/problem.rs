@@ -49,6 +49,7 @@ use crate::experiment::{decimate, Experiment};
 use crate::netlist_edit::set_param_si;
 use crate::nuisance::{best_skew, profile, SensorFit, SensorModel};
 use crate::params::{FitParam, Target};
+use crate::reuse::RowCache;
 use graph::FlatNetlist;
 use rayon::prelude::*;
 use std::ops::Range;
@@ -218,6 +219,39 @@ impl<'a> Problem<'a> {
         let parts: Vec<Vec<f64>> = self.included().par_iter().map(|&k| self.residuals_of(k, values)).collect::<Result<_, _>>()?;
         let mut r = parts.concat();
         r.extend(self.param_prior_rows(values));
+        Ok(r)
+    }
+
+    /// Whether parameter `j` changes the netlist of experiment `k` (a
+    /// netlist parameter fitted for some experiments only does not reach
+    /// the others; every other parameter reaches every experiment).
+    pub fn reaches(&self, j: usize, k: usize) -> bool {
+        match &self.params[j].target {
+            Target::Netlist { experiments: Some(m), .. } => m.contains(&k),
+            _ => true,
+        }
+    }
+
+    /// [`Problem::residuals`] at fit coordinates `u`, with the rows of an
+    /// experiment taken from `cache` where a kept evaluation differs from
+    /// `u` only in coordinates that do not reach it ([`crate::reuse`]: the
+    /// same result bit for bit, fewer simulations); the rows computed are
+    /// kept for later calls.
+    pub fn residuals_reusing(&self, u: &[f64], cache: &RowCache) -> Result<Vec<f64>, String> {
+        let values = self.values_of(u);
+        let included = self.included();
+        let found = cache.lookup(u, included.len(), |j, i| self.reaches(j, included[i]));
+        let parts: Vec<Vec<f64>> = included
+            .par_iter()
+            .zip(found.into_par_iter())
+            .map(|(&k, kept)| match kept {
+                Some(rows) => Ok(rows),
+                None => self.residuals_of(k, &values),
+            })
+            .collect::<Result<_, _>>()?;
+        cache.keep(u, &parts);
+        let mut r = parts.concat();
+        r.extend(self.param_prior_rows(&values));
         Ok(r)
     }
 
@@ -515,6 +549,39 @@ mod tests {
         assert!(rms(&with) < 0.3 && worst(&without) > 10.0, "with {} (worst {}) without {}", rms(&with), worst(&with), worst(&without));
         // what is left is the interpolation of the 1 ms output grid at the valve switch (a few σ at one sample)
         assert!(worst(&with) < 5.0, "{}", worst(&with));
+    }
+
+    #[test]
+    fn rows_reused_for_an_experiment_a_parameter_does_not_reach_are_the_same_bit_for_bit() {
+        // friction.k0 for both experiments, friction.k2 fitted for the
+        // second only (as a throttle's C per operating point is)
+        let flat = meter_out();
+        let mut second = probe(vec![Some(2e5); 301]);
+        second.sets = vec!["supply.p=6 bar".into()];
+        let exps = vec![probe(vec![Some(2e5); 301]), second];
+        let specs = vec![CalibSpec::plain("friction.k0"), CalibSpec::plain("friction.k2")];
+        let mut params = calibration_params(&flat, &exps, &specs).unwrap();
+        params[1].target = Target::Netlist { id: "friction".into(), param: "k2".into(), experiments: Some(vec![1]) };
+        let settings = SimSettings { rtol: 1e-6, atol: 1e-6, max_step: 0.05 };
+        let pr = Problem::new(&flat, &exps, vec![], params.clone(), settings, SensorModel::default(), 1e-3);
+        assert!(pr.reaches(0, 0) && pr.reaches(0, 1) && pr.reaches(1, 1) && !pr.reaches(1, 0));
+        let u0: Vec<f64> = params.iter().map(|p| p.to_u(p.start)).collect();
+        let cache = RowCache::for_coordinates(2);
+        let plain = |u: &[f64]| pr.residuals(&pr.values_of(u)).unwrap();
+        assert_eq!(pr.residuals_reusing(&u0, &cache).unwrap(), plain(&u0));
+        // a column in k2 (the first experiment's rows come from the cache)
+        // and one in k0 (nothing to reuse): both as computed afresh
+        for j in 0..2 {
+            let mut u = u0.clone();
+            u[j] += 0.3;
+            let reused = pr.residuals_reusing(&u, &cache).unwrap();
+            let fresh = plain(&u);
+            assert_eq!(reused.iter().map(|x| x.to_bits()).collect::<Vec<_>>(), fresh.iter().map(|x| x.to_bits()).collect::<Vec<_>>());
+            assert_ne!(fresh, plain(&u0), "moving coordinate {j} changes the residuals");
+        }
+        // at a new value of k2 the first experiment's rows are kept ones, the second's are not
+        let found = cache.lookup(&[u0[0], u0[1] + 0.7], 2, |j, i| pr.reaches(j, i));
+        assert!(found[0].is_some() && found[1].is_none());
     }
 
     #[test]

@@ -15,6 +15,7 @@ const STAGES: &[(&str, usize)] = &[
     ("phases", 1),
     ("params", 2),
     ("nuisance", 2),
+    ("reuse", 2),
     ("problem", 2),
     ("fit", 2),
     ("options", 3),
