@@ -21,10 +21,14 @@
 //!   the last step is clipped to hit `t_stop` exactly.
 //! * Initial step (when neither `h_init` nor a hint is known): the estimate of
 //!   Hairer, Nørsett & Wanner, *Solving ODEs I*, §II.4 (one explicit Euler probe).
-//! * Failures: a non-finite stage value or an (almost) singular iteration matrix
-//!   rejects the step and quarters/halves `h`; the integrator gives up with
-//!   `NonFinite`, `SingularMatrix` or `StepSizeTooSmall` when `h` falls below
-//!   `max(h_min, 16ε|t|)` or after 100 consecutive failed attempts, so it never hangs.
+//! * Failures: a non-finite stage value, a trial state the system refuses (an
+//!   error of its right-hand side at a stage or at the end of a step not yet
+//!   accepted) or an (almost) singular iteration matrix rejects the step and
+//!   quarters/halves `h`; the integrator gives up with `NonFinite`, `Rhs` (the
+//!   system's own message), `SingularMatrix` or `StepSizeTooSmall` when `h`
+//!   falls below `max(h_min, 16ε|t|)` or after 100 consecutive failed
+//!   attempts, so it never hangs. An error of the right-hand side at an
+//!   accepted state (the start, a Jacobian) ends the run at once.
 //! * Dense output: the RODAS 3rd-order continuous extension (see `dense.rs`).
 //! * Roots: after each accepted step the root functions are evaluated at its end;
 //!   a sign change in a function's [`RootDirection`](crate::RootDirection),
@@ -117,6 +121,10 @@ enum Attempt {
     Done(f64),
     /// A stage produced a non-finite value in `index` at time `t`.
     NonFinite { t: f64, index: usize },
+    /// The system refused a stage's trial state at time `t` (an error of its
+    /// right-hand side): rejected like a non-finite stage, the message kept
+    /// for when the step cannot shrink further.
+    Refused { t: f64, source: RhsError },
     /// The iteration matrix could not be factored.
     Singular,
 }
@@ -755,8 +763,11 @@ impl Rosenbrock {
                     ytmp[i] = v;
                 }
                 let ts = t0 + tab.c[st] * h;
-                if let Some(index) = eval_rhs(sys, ts, ytmp, fs, stats)? {
-                    return Ok(Attempt::NonFinite { t: ts, index });
+                match eval_rhs(sys, ts, ytmp, fs, stats) {
+                    Ok(Some(index)) => return Ok(Attempt::NonFinite { t: ts, index }),
+                    Ok(None) => {}
+                    Err(IntegratorError::Rhs { t, source }) => return Ok(Attempt::Refused { t, source }),
+                    Err(e) => return Err(e),
                 }
                 fs
             };
@@ -1017,22 +1028,24 @@ impl Integrator for Rosenbrock {
             let floor = self.opts.h_min.max(16.0 * f64::EPSILON * t.abs());
 
             let attempt = self.attempt(sys, *t, t1, y)?;
+            // a failure at a trial state (a stage, or a step end not yet
+            // accepted): a non-finite value, or a state the system refuses
+            let mut trial_failure = None;
             let err = match attempt {
                 Attempt::Done(err) if err <= 1.0 || self.fixed_h.is_some() => {
                     // Derivative at the new point (needed for the next step), and the
                     // root functions there, in one evaluation of the system.
-                    match eval_rhs_and_roots(sys, t1, &self.y1, &mut self.f1, &mut self.g1, &mut self.stats)? {
-                        None => Some(err),
-                        Some(index) => {
-                            self.stats.rejected += 1;
-                            failures += 1;
-                            h *= 0.25;
-                            after_reject = true;
-                            if self.fixed_h.is_some() || h < floor || failures > MAX_FAILURES {
-                                return Err(IntegratorError::NonFinite { t: t1, index });
-                            }
+                    match eval_rhs_and_roots(sys, t1, &self.y1, &mut self.f1, &mut self.g1, &mut self.stats) {
+                        Ok(None) => Some(err),
+                        Ok(Some(index)) => {
+                            trial_failure = Some(IntegratorError::NonFinite { t: t1, index });
                             None
                         }
+                        Err(IntegratorError::Rhs { t: tf, source }) => {
+                            trial_failure = Some(IntegratorError::Rhs { t: tf, source });
+                            None
+                        }
+                        Err(e) => return Err(e),
                     }
                 }
                 Attempt::Done(err) => {
@@ -1051,13 +1064,11 @@ impl Integrator for Rosenbrock {
                     None
                 }
                 Attempt::NonFinite { t: tf, index } => {
-                    self.stats.rejected += 1;
-                    failures += 1;
-                    h *= 0.25;
-                    after_reject = true;
-                    if self.fixed_h.is_some() || h < floor || failures > MAX_FAILURES {
-                        return Err(IntegratorError::NonFinite { t: tf, index });
-                    }
+                    trial_failure = Some(IntegratorError::NonFinite { t: tf, index });
+                    None
+                }
+                Attempt::Refused { t: tf, source } => {
+                    trial_failure = Some(IntegratorError::Rhs { t: tf, source });
                     None
                 }
                 Attempt::Singular => {
@@ -1072,6 +1083,21 @@ impl Integrator for Rosenbrock {
                     None
                 }
             };
+            // A trial failure rejects the step and quarters it. A state the
+            // system refuses (a real-gas equation of state far below its
+            // range in an overshooting stage, which the junction solve
+            // reports as an error) is treated as a non-finite value is; the
+            // system's message is returned only when the step cannot shrink
+            // further. An error at an accepted state still ends the run.
+            if let Some(give_up) = trial_failure {
+                self.stats.rejected += 1;
+                failures += 1;
+                h *= 0.25;
+                after_reject = true;
+                if self.fixed_h.is_some() || h < floor || failures > MAX_FAILURES {
+                    return Err(give_up);
+                }
+            }
             let Some(err) = err else {
                 continue;
             };

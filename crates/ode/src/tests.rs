@@ -580,6 +580,29 @@ fn rhs_error_is_reported_with_time() {
 }
 
 #[test]
+fn a_refused_trial_state_is_rejected_and_the_step_retried() {
+    // The system refuses the first state beyond y = 0.5 it is shown, once
+    // (as the junction solve refuses an overshooting stage's state): that
+    // state is a stage or the end of a step not yet accepted, so the step
+    // is rejected and retried smaller, and the run ends where it should.
+    let mut refused = false;
+    let mut sys = plain(1, |_t, y: &[f64], d: &mut [f64]| {
+        if y[0] > 0.5 && !refused {
+            refused = true;
+            return Err(RhsError("state out of range".into()));
+        }
+        d[0] = 1.0;
+        Ok(())
+    });
+    let mut int = Rosenbrock::new(Options::with_tolerances(1e-8, 1e-8, 1), 1);
+    let (mut t, mut y) = (0.0, vec![0.0]);
+    int.advance(&mut sys, &mut t, &mut y, 1.0, &mut no_obs()).expect("the refused trial is retried");
+    assert_eq!(t, 1.0);
+    assert!((y[0] - 1.0).abs() < 1e-9, "y = {}", y[0]);
+    assert!(int.stats().rejected >= 1);
+}
+
+#[test]
 fn nan_rhs_gives_non_finite() {
     let mut sys = plain(2, |t, y: &[f64], d: &mut [f64]| {
         d[0] = y[1];
