@@ -102,7 +102,11 @@ pub enum Method {
     Ros34pw2,
 }
 
-/// Error returned by a model's right-hand side or root functions.
+/// Error returned by a model's right-hand side or root functions. At a trial
+/// state (a stage of a step, or a step end not yet accepted) the integrator
+/// treats it as a refusal of that state: the step is rejected and retried
+/// smaller, and the error is returned only when the step cannot shrink
+/// further. At an accepted state (the start, a Jacobian) it ends the run.
 #[derive(Debug, Clone, thiserror::Error)]
 #[error("{0}")]
 pub struct RhsError(pub String);
@@ -274,7 +278,9 @@ pub enum IntegratorError {
     /// `max_steps` accepted steps were taken in one `advance` call.
     #[error("too many steps ({steps}) before reaching the stop time, at t = {t:e}")]
     TooManySteps { t: f64, steps: usize },
-    /// The right-hand side (or a root function) returned an error at time `t`.
+    /// The right-hand side (or a root function) returned an error at time `t`
+    /// at an accepted state, or at trial states until the step could not
+    /// shrink further (see [`RhsError`]).
     #[error("right-hand side failed at t = {t:e}: {source}")]
     Rhs {
         t: f64,
