@@ -107,6 +107,10 @@ fn main() -> Result<(), String> {
     if std::env::var("RECENTRE").is_ok() {
         options.recentre = true;
     }
+    // FRESH=0 turns the fresh starts of the full-record fits off (Options::fresh_start)
+    if std::env::var("FRESH").is_ok_and(|v| v == "0") {
+        options.fresh_start = false;
+    }
     // SCREEN_ITER=n: step attempts per short-record stage of a candidate (Options::screen_iter)
     if let Some(n) = std::env::var("SCREEN_ITER").ok().and_then(|s| s.parse().ok()) {
         options.screen_iter = n;

@@ -132,6 +132,15 @@ pub struct Options {
     /// (varied valve_delay seed 2, docs/discrepancy.md) and costs one more
     /// short-record fit per candidate and round.
     pub recentre: bool,
+    /// Fresh starts ([`crate::candidates::refit_fresh`]): the round's best
+    /// candidate, when its full-record fit continued from the current
+    /// model's optimum stops far above the noise, is also fitted from the
+    /// calibration's own start with the effect in (the staged fit of the
+    /// baseline's calibration), the lower prior-penalised cost kept. On by
+    /// default: a calibration bent to imitate a missing effect holds the
+    /// continuation in its basin (docs/discrepancy.md, "Fresh starts");
+    /// costs one calibration per round.
+    pub fresh_start: bool,
     pub progress: Progress,
 }
 
@@ -162,6 +171,7 @@ impl Default for Options {
             switch_latency: 1e-3,
             sham: true,
             recentre: false,
+            fresh_start: true,
             progress: Progress::default(),
         }
     }

@@ -3,7 +3,7 @@
 //!
 //! # Tests of a candidate B against the current model A
 //! A candidate passes when all of these hold:
-//! 1. **parameters** ([`crate::candidates::finish`]): a parameter with a null
+//! 1. **parameters** ([`crate::candidates::judge`]): a parameter with a null
 //!    value lies more than `z_null` correlation-aware standard errors from it;
 //! 2. **information criterion**: ΔIC on effective sample sizes
 //!    ([`crate::stats::delta_ic`]) below −`ic`;
@@ -69,7 +69,9 @@
 //! named first that a later one made unnecessary is dropped.
 
 use crate::candidates::{better_short, penalised_cost, recentred, short_reference, Short};
-use crate::candidates::{calibration_jacobian, finish, prepare, problem_for, projected_scan, screened, Candidate, Pass, Structure};
+use crate::candidates::{
+    calibration_jacobian, fit_full, judge, prepare, problem_for, projected_scan, refit_fresh, screened, Candidate, Fitted, Pass, Structure,
+};
 use crate::effects::Effect;
 use crate::experiment::Experiment;
 use crate::fit::{fit_once, fit_short_stages, screen_horizon, FitOptions};
@@ -478,35 +480,63 @@ pub fn search<'a>(
                 preps[i].cand.effect, preps[i].short_dic
             ));
         }
-        let results: Vec<(Option<Structure<'a>>, Candidate)> = preps
+        let mut fitted: Vec<Result<Fitted<'a>, Box<Candidate>>> = preps
             .into_iter()
             .enumerate()
             .collect::<Vec<_>>()
             .into_par_iter()
             .map(|(i, p)| {
                 if p.short.is_none() {
-                    return (None, p.cand);
+                    return Err(Box::new(p.cand));
                 }
                 let d = p.short_dic;
                 if fallback == Some(i) {
-                    return finish(&current, p, opts);
+                    return fit_full(&current, p, opts);
                 }
                 if d.is_nan() || d >= -th.ic {
                     let why = format!("screened out: ΔIC = {d:.1} on the first part of the records is not below -{}", th.ic);
-                    return (None, screened(p, why));
+                    return Err(Box::new(screened(p, why)));
                 }
                 if best_short < 0.0 && d > opts.screen_relative * best_short {
                     let why = format!(
                         "screened out: ΔIC = {d:.1} on the first part of the records is less than {} of the best candidate's {best_short:.1}",
                         opts.screen_relative
                     );
-                    return (None, screened(p, why));
+                    return Err(Box::new(screened(p, why)));
                 }
                 if rank[i] >= opts.screen_keep {
                     let why = format!("screened out: only the best {} candidates on the first part of the records are fitted", opts.screen_keep);
-                    return (None, screened(p, why));
+                    return Err(Box::new(screened(p, why)));
                 }
-                finish(&current, p, opts)
+                fit_full(&current, p, opts)
+            })
+            .collect();
+        // the fresh start (crate::candidates, "Phase B"): the round's best
+        // candidate by its full-record ΔIC is fitted again from the
+        // calibration's own start when it stops far above the noise
+        let best_fitted = fitted
+            .iter()
+            .enumerate()
+            .filter_map(|(i, r)| r.as_ref().ok().map(|x| (i, x.delta_ic(&current))))
+            .min_by(|a, b| a.1.total_cmp(&b.1))
+            .map(|(i, _)| i);
+        if let (true, Some(i)) = (opts.fresh_start, best_fitted) {
+            if let Ok(x) = fitted[i].as_mut() {
+                if x.far_above_noise() {
+                    let before = x.fit.chi2;
+                    refit_fresh(x, opts);
+                    opts.progress.say(&format!(
+                        "  {}: refitted from the calibration's own start (χ² {before:.1} → {:.1})",
+                        x.cand.effect, x.fit.chi2
+                    ));
+                }
+            }
+        }
+        let results: Vec<(Option<Structure<'a>>, Candidate)> = fitted
+            .into_par_iter()
+            .map(|r| match r {
+                Ok(x) => judge(&current, x, opts),
+                Err(c) => (None, *c),
             })
             .collect();
         let mut results = results;
