@@ -877,13 +877,14 @@ pub fn refit_fresh(fitted: &mut Fitted, opts: &Options) {
 /// Phase B's tests: ΔIC, the share of the gap explained, the parameter,
 /// bound and practical-size tests.
 pub fn judge<'a>(current: &Structure<'a>, fitted: Fitted<'a>, opts: &Options) -> (Option<Structure<'a>>, Candidate) {
+    let dic = fitted.delta_ic(current);
     let Fitted { effects, params, added, problem, short, fit: f, mut cand } = fitted;
     let n_res = f.residuals.len().max(1) as f64;
     let first = params.len() - added;
     let th = &opts.thresholds;
     cand.fit_message = f.message.clone();
     cand.chi2 = f.chi2;
-    cand.delta_ic = delta_ic(&current.fit.stats.chi2, &f.stats.chi2, &f.stats.n_eff(), added as isize);
+    cand.delta_ic = dic;
     let excess = current.fit.chi2 - n_res;
     cand.gap_explained = if excess > 0.0 { (current.fit.chi2 - f.chi2) / excess } else { 0.0 };
     let est = estimates(&params, &f);
