@@ -104,7 +104,7 @@
 //! continuation in that basin: the effect then fits at a fraction of its
 //! size (a seal leak at a fifth of the truth, measured). The baseline was
 //! calibrated from the same start, so the comparison stays like with like.
-//! Cost: one staged calibration (≈ 300–600 simulations) per round, for
+//! Cost: one staged calibration (≈ 500–1 000 simulations, measured) per round, for
 //! one candidate only (given to every candidate so stopped, it doubled
 //! the run time of a seal-leak case); `Options::fresh_start` turns it off.
 //! Then the parameter test: at least one parameter with a null value lies more than
