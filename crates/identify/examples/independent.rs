@@ -111,6 +111,10 @@ fn main() -> Result<(), String> {
     if std::env::var("FRESH").is_ok_and(|v| v == "0") {
         options.fresh_start = false;
     }
+    // PSTART=0 turns the projected starts of the screens off (Options::projected_start)
+    if std::env::var("PSTART").is_ok_and(|v| v == "0") {
+        options.projected_start = false;
+    }
     // SCREEN_ITER=n: step attempts per short-record stage of a candidate (Options::screen_iter)
     if let Some(n) = std::env::var("SCREEN_ITER").ok().and_then(|s| s.parse().ok()) {
         options.screen_iter = n;

@@ -141,6 +141,15 @@ pub struct Options {
     /// continuation in its basin (docs/discrepancy.md, "Fresh starts");
     /// costs one calibration per round.
     pub fresh_start: bool,
+    /// Projected starts ([`crate::candidates::retry_projected`], module
+    /// header of [`crate::candidates`]): in the first round, a candidate
+    /// the screen would drop whose projected-scan ΔIC is below −`ic` is
+    /// screened once more from the calibration's Gauss–Newton answer to
+    /// the effect at its best projected grid point (docs/discrepancy.md,
+    /// "Projected starts"); costs the projected scan (one short-record
+    /// simulation per calibration parameter and grid point) and one more
+    /// short-record fit per such candidate.
+    pub projected_start: bool,
     pub progress: Progress,
 }
 
@@ -172,6 +181,7 @@ impl Default for Options {
             sham: true,
             recentre: false,
             fresh_start: true,
+            projected_start: true,
             progress: Progress::default(),
         }
     }
