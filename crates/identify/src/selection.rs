@@ -409,8 +409,8 @@ pub fn search<'a>(
                 let mut kept = Vec::new();
                 for (rank, &i) in order.iter().enumerate() {
                     let s = &scored[i];
-                    out.evaluations += s.sims;
                     if opts.screen_prepare == 0 || (rank < opts.screen_prepare && s.dic < 0.0) {
+                        out.evaluations += s.sims;
                         let start = s.start.clone().filter(|_| projected_start && s.dic < -th.ic);
                         kept.push((tried[i], start));
                     } else {
