@@ -518,17 +518,14 @@ pub fn prepare<'a>(
             recentred_start = true;
         }
     }
-    // the screen's early stop (module header, "Early stop")
-    let screen = current.short.as_ref().map(|s| ScreenStop {
-        reference: s.stats.clone(),
-        added: added.len() as isize,
-        threshold: GIVE_UP_DIC,
-        stall: opts.thresholds.ic,
-    });
     let fit_opts = if pass.rescue {
-        FitOptions { horizons: screen_horizon(&opts.fit).into_iter().collect(), screen, ..opts.fit.clone() }
+        FitOptions {
+            horizons: screen_horizon(&opts.fit).into_iter().collect(),
+            screen: screen_stop(current, added.len(), opts),
+            ..opts.fit.clone()
+        }
     } else {
-        FitOptions { stage_max_iter: opts.screen_iter, screen, ..opts.fit.clone() }
+        screen_fit_options(current, added.len(), opts)
     };
     // An effect without parameters is screened from the current model's
     // short-record optimum only (below), not refitted from its full-record values.
@@ -589,17 +586,47 @@ pub fn prepare<'a>(
         errors.dedup();
         cand.fail("fit", format!("fit failed: {}", errors.join("; ")));
     }
-    let short_dic = match (short.as_ref().and_then(|s| s.short.as_ref()), &current.short) {
-        (Some(b), Some(a)) if a.stats.n == b.stats.n => delta_ic(&a.stats.chi2, &b.stats.chi2, &b.stats.n_eff(), added.len() as isize),
-        _ => f64::NAN,
-    };
-    if let Some(v) = short.as_ref().and_then(|s| s.values_short()) {
-        let first = params.len() - added.len();
-        for (p, x) in added.iter().zip(&v[first..]) {
-            cand.params.insert(short_name(p), *x);
-        }
+    let short_dic = short.as_ref().and_then(|s| short_delta_ic(current, s, added.len())).unwrap_or(f64::NAN);
+    if let Some(s) = short.as_ref() {
+        note_effect_values(&mut cand, &params, &added, s);
     }
     Prepared { effects, params, added, problem, short, short_dic, cand }
+}
+
+/// The screen's early stop against the current model's short-record fit
+/// (module header, "Early stop"); `None` without one.
+fn screen_stop(current: &Structure<'_>, added: usize, opts: &Options) -> Option<ScreenStop> {
+    current.short.as_ref().map(|s| ScreenStop {
+        reference: s.stats.clone(),
+        added: added as isize,
+        threshold: GIVE_UP_DIC,
+        stall: opts.thresholds.ic,
+    })
+}
+
+/// The screen's fit options: `opts.screen_iter` iterations per stage and
+/// the early stop against the current model.
+fn screen_fit_options(current: &Structure<'_>, added: usize, opts: &Options) -> FitOptions {
+    FitOptions { stage_max_iter: opts.screen_iter, screen: screen_stop(current, added, opts), ..opts.fit.clone() }
+}
+
+/// A screen's short-record ΔIC against the current model (per block, on
+/// effective sample sizes, `added` parameters penalised); `None` when
+/// either has no short-record result or their records differ in length.
+fn short_delta_ic(current: &Structure<'_>, staged: &Staged, added: usize) -> Option<f64> {
+    let (a, b) = (current.short.as_ref()?, staged.short.as_ref()?);
+    (a.stats.n == b.stats.n).then(|| delta_ic(&a.stats.chi2, &b.stats.chi2, &b.stats.n_eff(), added as isize))
+}
+
+/// The effect's parameters at a screen's short-record optimum, written
+/// into the candidate's row by their short names.
+fn note_effect_values(cand: &mut Candidate, params: &[FitParam], added: &[FitParam], staged: &Staged) {
+    if let Some(v) = staged.values_short() {
+        let first = params.len() - added.len();
+        for (q, x) in added.iter().zip(&v[first..]) {
+            cand.params.insert(short_name(q), *x);
+        }
+    }
 }
 
 /// The projected start of a candidate the screen would drop (module
@@ -609,32 +636,16 @@ pub fn prepare<'a>(
 /// candidate's best so far. A candidate without a short-record result, or
 /// a start of the wrong length, is returned as it came.
 pub fn retry_projected<'a>(current: &Structure<'a>, mut p: Prepared<'a>, start: Vec<f64>, opts: &Options) -> Prepared<'a> {
-    let (Some(reference), true, true) = (&current.short, p.short.is_some(), start.len() == p.params.len()) else {
+    if current.short.is_none() || p.short.is_none() || start.len() != p.params.len() {
         return p;
-    };
-    let screen = Some(ScreenStop {
-        reference: reference.stats.clone(),
-        added: p.added.len() as isize,
-        threshold: GIVE_UP_DIC,
-        stall: opts.thresholds.ic,
-    });
-    let fit_opts = FitOptions { stage_max_iter: opts.screen_iter, screen, ..opts.fit.clone() };
+    }
+    let fit_opts = screen_fit_options(current, p.added.len(), opts);
     let Ok(staged) = fit_short_stages(&p.problem, &start, &fit_opts) else { return p };
     p.cand.evaluations += staged.evaluations;
-    let dic = match staged.short.as_ref() {
-        Some(b) if reference.stats.n == b.stats.n => {
-            delta_ic(&reference.stats.chi2, &b.stats.chi2, &b.stats.n_eff(), p.added.len() as isize)
-        }
-        _ => return p,
-    };
+    let Some(dic) = short_delta_ic(current, &staged, p.added.len()) else { return p };
     if dic < p.short_dic || p.short_dic.is_nan() {
         p.cand.notes.push(format!("screened from the projected start (short-record ΔIC {:.1} → {dic:.1})", p.short_dic));
-        if let Some(v) = staged.values_short() {
-            let first = p.params.len() - p.added.len();
-            for (q, x) in p.added.iter().zip(&v[first..]) {
-                p.cand.params.insert(short_name(q), *x);
-            }
-        }
+        note_effect_values(&mut p.cand, &p.params, &p.added, &staged);
         p.short = Some(staged);
         p.short_dic = dic;
     }
