@@ -145,7 +145,7 @@ fn main() -> Result<(), String> {
     }
     println!("after rmse_n {:?}", s.after.rmse_normalized);
     for p in &s.after.params {
-        println!("  {} = {:?} {} (ci {:?})", p.name, p.shown, p.unit, p.ci95);
+        println!("  {} = {:?} {} (ci {:?})", p.name, p.shown, p.unit, p.shown_ci95);
     }
     for x in s.after.sensors.iter().filter(|x| x.symptom.is_some() || std::env::var("SENSORS").is_ok()) {
         println!(

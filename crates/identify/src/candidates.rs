@@ -78,20 +78,21 @@
 //! scan above already knows the calibration's first-order answer to each
 //! grid point g: δu = −J⁺ r(θ̂, g), the Gauss–Newton step of the
 //! calibration from θ̂ in the fit's scaled coordinates
-//! ([`ProjectionBase::answer`]). So in the first round (the baseline's
-//! calibration is the bent one; given in later rounds too it cost a leak
-//! behind a named delay its name, measured), a candidate that the screen
-//! would drop (short-record ΔIC not below −`ic`) while its projected score
-//! is below −`ic` gets one more start ([`retry_projected`]; given to every
-//! candidate so scored, it changed the fit of a valve delay that passed
-//! anyway and a spurious second effect followed, measured): θ̂ + δu at its
+//! ([`ProjectionBase::answer`]). So in every round (the current model's
+//! calibration, with the effects named so far, is the one bent), a
+//! candidate that the screen would drop (short-record ΔIC not below
+//! −`ic`) while its projected score is below −`ic` gets one more start
+//! ([`retry_projected`]; given to every candidate so scored, it changed
+//! the fit of candidates that passed anyway — a valve delay fitted into
+//! another optimum with a spurious second effect after it, a leak behind a
+//! named delay that lost its name — measured): θ̂ + δu at its
 //! best projected grid point (each parameter clamped to its bounds), the
 //! effect at that point —
 //! the effect and the unbent calibration moved together, as the valley
 //! runs. It is fitted through the short-record stages like the other
 //! starts and kept only if it scores better by the screen's criterion, so a
-//! linear answer that overshoots costs its fit and nothing else. Cost in
-//! the first round: the calibration's Jacobian on the first short horizon
+//! linear answer that overshoots costs its fit and nothing else. Cost per
+//! round: the calibration's Jacobian on the first short horizon
 //! (one simulation per parameter), one short simulation per grid point of
 //! each candidate, and one short-record fit per candidate so started
 //! (`Options::projected_start`, on by default; measured in
@@ -640,7 +641,13 @@ pub fn retry_projected<'a>(current: &Structure<'a>, mut p: Prepared<'a>, start: 
         return p;
     }
     let fit_opts = screen_fit_options(current, p.added.len(), opts);
-    let Ok(staged) = fit_short_stages(&p.problem, &start, &fit_opts) else { return p };
+    let staged = match fit_short_stages(&p.problem, &start, &fit_opts) {
+        Ok(staged) => staged,
+        Err(e) => {
+            p.cand.notes.push(format!("the projected start's screen failed: {e}"));
+            return p;
+        }
+    };
     p.cand.evaluations += staged.evaluations;
     let Some(dic) = short_delta_ic(current, &staged, p.added.len()) else { return p };
     if dic < p.short_dic || p.short_dic.is_nan() {

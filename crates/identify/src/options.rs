@@ -142,7 +142,7 @@ pub struct Options {
     /// costs one calibration per round.
     pub fresh_start: bool,
     /// Projected starts ([`crate::candidates::retry_projected`], module
-    /// header of [`crate::candidates`]): in the first round, a candidate
+    /// header of [`crate::candidates`]): in every round, a candidate
     /// the screen would drop whose projected-scan ΔIC is below −`ic` is
     /// screened once more from the calibration's Gauss–Newton answer to
     /// the effect at its best projected grid point (docs/discrepancy.md,

@@ -391,11 +391,12 @@ pub fn search<'a>(
         ));
         // the projected scan ranks the candidates; only the best few are prepared
         let mut pruned: Vec<Candidate> = Vec::new();
-        // projected starts in the first round only: the baseline's calibration
-        // is the one bent to imitate the missing effect; given in round 2 too
-        // they cost the leak of a leak + delay pair its fresh refit (measured,
-        // docs/discrepancy.md "Projected starts (2026-11-28)")
-        let projected_start = opts.projected_start && current.effects.is_empty();
+        // projected starts in every round, for the candidates the screen
+        // would drop (docs/discrepancy.md "Projected starts (2026-11-28)":
+        // given to every candidate in round 2 they cost the leak of a leak +
+        // delay pair its fresh refit; given only to the dropped ones they
+        // name the laminar leak behind a named delay)
+        let projected_start = opts.projected_start;
         let projection =
             if opts.screen_prepare > 0 || projected_start { calibration_jacobian(base, experiments, &current, opts) } else { None };
         // each tried effect with its projected start (crate::candidates, "Projected starts")
