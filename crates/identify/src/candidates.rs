@@ -89,12 +89,20 @@
 //! best projected grid point (each parameter clamped to its bounds), the
 //! effect at that point —
 //! the effect and the unbent calibration moved together, as the valley
-//! runs. It is fitted through the short-record stages like the other
-//! starts and kept only if it scores better by the screen's criterion, so a
-//! linear answer that overshoots costs its fit and nothing else. Cost per
-//! round: the calibration's Jacobian on the first short horizon
-//! (one simulation per parameter), one short simulation per grid point of
-//! each candidate, and one short-record fit per candidate so started
+//! runs. An effect with shape parameters (the seal leak's law, the
+//! Stribeck velocity, the supply line's volume) gets one such start per
+//! shape value whose best point scores below −`ic`, as its ordinary starts
+//! are one per shape value ([`pick_starts`]): the linear answer can rank a
+//! law best that the nonlinear fit cannot reach (an orifice leak behind a
+//! named delay, projected best as the linear law at 1 L/(min·bar), is
+//! found from the orifice law's own best point; docs/discrepancy.md
+//! "Projected starts per shape value"). Each is fitted through the
+//! short-record stages like the other starts and the best is kept only if
+//! it scores better by the screen's criterion, so a linear answer that
+//! overshoots costs its fit and nothing else. Cost per round: the
+//! calibration's Jacobian on the first short horizon (one simulation per
+//! parameter), one short simulation per grid point of each candidate, and
+//! one short-record fit per shape value of each candidate so started
 //! (`Options::projected_start`, on by default; measured in
 //! docs/discrepancy.md "Projected starts").
 //!
@@ -630,26 +638,37 @@ fn note_effect_values(cand: &mut Candidate, params: &[FitParam], added: &[FitPar
     }
 }
 
-/// The projected start of a candidate the screen would drop (module
+/// The projected starts of a candidate the screen would drop (module
 /// header, "Projected starts"): its short-record stages once more from
-/// `start` (the calibration's Gauss–Newton answer to the effect at its best
-/// projected grid point), kept when its short-record ΔIC is lower than the
-/// candidate's best so far. A candidate without a short-record result, or
-/// a start of the wrong length, is returned as it came.
-pub fn retry_projected<'a>(current: &Structure<'a>, mut p: Prepared<'a>, start: Vec<f64>, opts: &Options) -> Prepared<'a> {
-    if current.short.is_none() || p.short.is_none() || start.len() != p.params.len() {
+/// each of `starts` (the calibration's Gauss–Newton answer to the effect at
+/// the best projected grid point of each shape value), the best of them
+/// kept when its short-record ΔIC is lower than the candidate's best so
+/// far. A candidate without a short-record result is returned as it came,
+/// and so are starts of the wrong length.
+pub fn retry_projected<'a>(current: &Structure<'a>, mut p: Prepared<'a>, starts: &[Vec<f64>], opts: &Options) -> Prepared<'a> {
+    let starts: Vec<&Vec<f64>> = starts.iter().filter(|s| s.len() == p.params.len()).collect();
+    if current.short.is_none() || p.short.is_none() || starts.is_empty() {
         return p;
     }
     let fit_opts = screen_fit_options(current, p.added.len(), opts);
-    let staged = match fit_short_stages(&p.problem, &start, &fit_opts) {
-        Ok(staged) => staged,
-        Err(e) => {
-            p.cand.notes.push(format!("the projected start's screen failed: {e}"));
-            return p;
+    let fits: Vec<Result<Staged, String>> = starts.par_iter().map(|start| fit_short_stages(&p.problem, start, &fit_opts)).collect();
+    let mut best: Option<(f64, Staged)> = None;
+    for fit in fits {
+        let staged = match fit {
+            Ok(staged) => staged,
+            Err(e) => {
+                p.cand.notes.push(format!("the projected start's screen failed: {e}"));
+                continue;
+            }
+        };
+        p.cand.evaluations += staged.evaluations;
+        if let Some(dic) = short_delta_ic(current, &staged, p.added.len()) {
+            if best.as_ref().is_none_or(|(b, _)| dic < *b) {
+                best = Some((dic, staged));
+            }
         }
-    };
-    p.cand.evaluations += staged.evaluations;
-    let Some(dic) = short_delta_ic(current, &staged, p.added.len()) else { return p };
+    }
+    let Some((dic, staged)) = best else { return p };
     if dic < p.short_dic || p.short_dic.is_nan() {
         p.cand.notes.push(format!("screened from the projected start (short-record ΔIC {:.1} → {dic:.1})", p.short_dic));
         note_effect_values(&mut p.cand, &p.params, &p.added, &staged);
@@ -707,10 +726,12 @@ pub struct ProjectedScore {
     pub dic: f64,
     /// Simulations run.
     pub sims: usize,
-    /// The projected start at the best grid point: the calibration moved by
-    /// its Gauss–Newton answer to that point's residuals, the effect's
+    /// The projected starts, best first, each with its projected ΔIC: for
+    /// each combination of the effect's shape values (one for an effect
+    /// without shape parameters) the best grid point, the calibration moved
+    /// by its Gauss–Newton answer to that point's residuals, the effect's
     /// parameters at the point (module header, "Projected starts").
-    pub start: Option<Vec<f64>>,
+    pub starts: Vec<(f64, Vec<f64>)>,
 }
 
 /// The projected-scan score of `effect` on top of `current` (see the module
@@ -751,9 +772,42 @@ pub fn projected_scan(
             (dic, Some(start))
         })
         .collect();
-    let best = scores.into_iter().filter(|(d, _)| !d.is_nan()).min_by(|a, b| a.0.total_cmp(&b.0));
-    let (dic, start) = best.unwrap_or((f64::INFINITY, None));
-    ProjectedScore { dic, sims: grid.len(), start: start.filter(|_| dic.is_finite()) }
+    let mut scored: Vec<(f64, Vec<f64>)> =
+        scores.into_iter().filter_map(|(d, start)| Some((d, start?))).filter(|(d, _)| d.is_finite()).collect();
+    scored.sort_by(|a, b| a.0.total_cmp(&b.0));
+    let dic = scored.first().map_or(f64::INFINITY, |(d, _)| *d);
+    ProjectedScore { dic, sims: grid.len(), starts: best_per_shape(scored, &added) }
+}
+
+/// The best of `scored` (sorted, best first; each point the whole parameter
+/// vector, the effect's `added` parameters last) for each combination of
+/// the effect's shape values (parameters without a null, held on the short
+/// records, so each shape value is its own sub-problem: [`pick_starts`]),
+/// best first; the best point alone for an effect without shape parameters.
+fn best_per_shape(scored: Scored, added: &[FitParam]) -> Scored {
+    split_by_shape(scored, added).0
+}
+
+/// Scan points, each the whole parameter vector with its score.
+type Scored = Vec<(f64, Vec<f64>)>;
+
+/// `scored` (sorted, best first) split into the best point of each
+/// combination of shape values, best first, and the rest in order.
+fn split_by_shape(scored: Scored, added: &[FitParam]) -> (Scored, Scored) {
+    let first = scored.first().map_or(0, |(_, v)| v.len() - added.len());
+    let shape: Vec<usize> = added.iter().enumerate().filter(|(_, p)| p.null.is_none()).map(|(i, _)| first + i).collect();
+    let mut seen: Vec<Vec<u64>> = Vec::new();
+    let (mut best, mut rest) = (Vec::new(), Vec::new());
+    for (d, v) in scored {
+        let key: Vec<u64> = shape.iter().map(|&i| v[i].to_bits()).collect();
+        if seen.contains(&key) {
+            rest.push((d, v));
+        } else {
+            seen.push(key);
+            best.push((d, v));
+        }
+    }
+    (best, rest)
 }
 
 /// What the projected scan of a round needs from the current model: its
@@ -890,26 +944,12 @@ pub fn calibration_jacobian(
 /// the weakest grid point first whatever its shape — one start per shape
 /// value keeps the right one in play.
 fn pick_starts(scored: Vec<(f64, Vec<f64>)>, added: &[FitParam], starts: usize) -> Vec<Vec<f64>> {
-    let first = scored.first().map_or(0, |(_, v)| v.len() - added.len());
-    let shape: Vec<usize> = added.iter().enumerate().filter(|(_, p)| p.null.is_none()).map(|(i, _)| first + i).collect();
-    if shape.is_empty() {
+    if added.iter().all(|p| p.null.is_some()) {
         return scored.into_iter().take(1).map(|(_, v)| v).collect();
     }
-    let key = |v: &[f64]| -> Vec<u64> { shape.iter().map(|&i| v[i].to_bits()).collect() };
-    let mut seen: Vec<Vec<u64>> = Vec::new();
-    let (mut picked, mut rest) = (Vec::new(), Vec::new());
-    for (_, v) in scored {
-        let k = key(&v);
-        if seen.contains(&k) {
-            rest.push(v);
-        } else {
-            seen.push(k);
-            picked.push(v);
-        }
-    }
+    let (picked, rest) = split_by_shape(scored, added);
     let more = starts.saturating_sub(picked.len());
-    picked.extend(rest.into_iter().take(more));
-    picked
+    picked.into_iter().chain(rest.into_iter().take(more)).map(|(_, v)| v).collect()
 }
 
 /// The screen's early stop: a candidate's screening stage ends at an iterate
@@ -1334,5 +1374,26 @@ mod tests {
         let starts = pick_starts(scored, &added, 4);
         assert_eq!(starts.len(), 4);
         assert_eq!(starts[3], vec![9.0, 0.2, 3.0]);
+    }
+
+    #[test]
+    fn projected_starts_are_the_best_point_of_each_shape_value_best_first() {
+        // the linear answer ranks shape 3 best at every size (as the leak's
+        // linear law behind a named delay); the orifice-like shape 1 keeps
+        // its own best point, with its own score
+        let added = effect_params(&Shaped, 0);
+        let scored = vec![
+            (-359.0, vec![9.0, 1.0, 3.0]),
+            (-284.0, vec![8.0, 0.3, 1.0]),
+            (-220.0, vec![7.0, 0.3, 3.0]),
+            (-137.0, vec![6.0, 0.3, 2.0]),
+            (-94.0, vec![5.0, 0.1, 1.0]),
+        ];
+        let starts = best_per_shape(scored.clone(), &added);
+        assert_eq!(starts, vec![scored[0].clone(), scored[1].clone(), scored[3].clone()]);
+        // without shape parameters: the best point alone
+        let sized = effect_params(&crate::effects::ValveDelay, 0);
+        let one = vec![(-5.0, vec![9.0, 0.02]), (-3.0, vec![9.0, 0.01])];
+        assert_eq!(best_per_shape(one.clone(), &sized), vec![one[0].clone()]);
     }
 }

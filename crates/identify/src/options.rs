@@ -145,10 +145,11 @@ pub struct Options {
     /// header of [`crate::candidates`]): in every round, a candidate
     /// the screen would drop whose projected-scan ΔIC is below −`ic` is
     /// screened once more from the calibration's Gauss–Newton answer to
-    /// the effect at its best projected grid point (docs/discrepancy.md,
-    /// "Projected starts"); costs the projected scan (one short-record
-    /// simulation per calibration parameter and grid point) and one more
-    /// short-record fit per such candidate.
+    /// the effect at its best projected grid point of each shape value
+    /// (docs/discrepancy.md, "Projected starts"); costs the projected scan
+    /// (one short-record simulation per calibration parameter and grid
+    /// point) and one more short-record fit per shape value of each such
+    /// candidate.
     pub projected_start: bool,
     pub progress: Progress,
 }

@@ -400,7 +400,7 @@ pub fn search<'a>(
         let projection =
             if opts.screen_prepare > 0 || projected_start { calibration_jacobian(base, experiments, &current, opts) } else { None };
         // each tried effect with its projected start (crate::candidates, "Projected starts")
-        let tried: Vec<(&dyn Effect, Option<Vec<f64>>)> = match projection {
+        let tried: Vec<(&dyn Effect, Vec<Vec<f64>>)> = match projection {
             Some((reference, spent)) => {
                 out.evaluations += spent;
                 let scored: Vec<ProjectedScore> =
@@ -412,8 +412,9 @@ pub fn search<'a>(
                     let s = &scored[i];
                     if opts.screen_prepare == 0 || (rank < opts.screen_prepare && s.dic < 0.0) {
                         out.evaluations += s.sims;
-                        let start = s.start.clone().filter(|_| projected_start && s.dic < -th.ic);
-                        kept.push((tried[i], start));
+                        let starts: Vec<Vec<f64>> =
+                            s.starts.iter().filter(|(d, _)| projected_start && *d < -th.ic).map(|(_, v)| v.clone()).collect();
+                        kept.push((tried[i], starts));
                     } else {
                         let mut c = Candidate::new(round, tried[i].name());
                         c.screened_out = true;
@@ -436,7 +437,7 @@ pub fn search<'a>(
                 ));
                 kept
             }
-            _ => tried.into_iter().map(|e| (e, None)).collect(),
+            _ => tried.into_iter().map(|e| (e, Vec::new())).collect(),
         };
         let mut preps: Vec<_> =
             tried.par_iter().map(|(e, _)| prepare(base, experiments, &current, *e, Pass { round, rescue: false }, opts)).collect();
@@ -471,14 +472,16 @@ pub fn search<'a>(
         // candidate the screen would drop, while the projected scan says the
         // calibration's linear answer leaves it clearly better, is screened
         // once more from that answer
-        if tried.iter().any(|(_, s)| s.is_some()) {
+        if tried.iter().any(|(_, s)| !s.is_empty()) {
             let retried: Vec<_> = preps
                 .into_iter()
                 .zip(&tried)
                 .collect::<Vec<_>>()
                 .into_par_iter()
                 .map(|(p, (_, start))| match start {
-                    Some(st) if p.short_dic.is_nan() || p.short_dic >= -th.ic => retry_projected(&current, p, st.clone(), opts),
+                    starts if !starts.is_empty() && (p.short_dic.is_nan() || p.short_dic >= -th.ic) => {
+                        retry_projected(&current, p, starts, opts)
+                    }
                     _ => p,
                 })
                 .collect();
