@@ -58,8 +58,11 @@ pub fn restriction_flow_slopes(fc: &FlowCharacteristic, opening: f64, a: &GasSta
     if opening <= 0.0 {
         return (PortFlow { mdot: 0.0, edot: g_heat * (a.t - b.t) }, 0.0, 0.0);
     }
-    let (da, db) = fc.mass_flow_derivatives(a.p, a.t, b.p, b.t);
-    (restriction_flow(fc, opening, a, b, g_heat), opening * da, opening * db)
+    // `restriction_flow`'s numbers, with the slopes from the same ω(r)
+    let (m, da, db) = fc.mass_flow_and_derivatives(a.p, a.t, b.p, b.t);
+    let mdot = opening * m;
+    let h_up = if mdot >= 0.0 { a.h } else { b.h };
+    (PortFlow { mdot, edot: mdot * h_up + g_heat * (a.t - b.t) }, opening * da, opening * db)
 }
 
 /// Flow into port `port` (0 = a, 1 = b) of a two-port restriction carrying

@@ -145,6 +145,10 @@ pub struct FlowCharacteristic {
     b_lam: f64,
     t_ref: f64,
     rho_ref: f64,
+    /// Slope `ω(b_lam)/(1 − b_lam)` of the laminar line, a function of `b`,
+    /// `m` and `b_lam` kept beside them ([`Self::with_laminar_line`]) so
+    /// that a flow in the laminar region costs no power function.
+    lam_slope: f64,
 }
 
 fn positive_finite(x: f64) -> bool {
@@ -167,7 +171,16 @@ impl FlowCharacteristic {
         if b >= DEFAULT_LAMINAR_RATIO {
             return Err(FlowError::LaminarRatio { b_lam: DEFAULT_LAMINAR_RATIO, b });
         }
-        Ok(Self { c, b, m: DEFAULT_SUBSONIC_INDEX, b_lam: DEFAULT_LAMINAR_RATIO, t_ref: ANR_TEMPERATURE, rho_ref: ANR_DENSITY })
+        let fc = Self {
+            c,
+            b,
+            m: DEFAULT_SUBSONIC_INDEX,
+            b_lam: DEFAULT_LAMINAR_RATIO,
+            t_ref: ANR_TEMPERATURE,
+            rho_ref: ANR_DENSITY,
+            lam_slope: 0.0,
+        };
+        Ok(fc.with_laminar_line())
     }
 
     /// Same characteristic with subsonic index `m` in `(0, 1]`.
@@ -175,7 +188,7 @@ impl FlowCharacteristic {
         if !(m > 0.0 && m <= 1.0) {
             return Err(FlowError::SubsonicIndex(m));
         }
-        Ok(Self { m, ..self })
+        Ok(Self { m, ..self }.with_laminar_line())
     }
 
     /// Same characteristic with laminar ratio `b_lam` in `(b, 1)`.
@@ -183,7 +196,7 @@ impl FlowCharacteristic {
         if !(b_lam > self.b && b_lam < 1.0) {
             return Err(FlowError::LaminarRatio { b_lam, b: self.b });
         }
-        Ok(Self { b_lam, ..self })
+        Ok(Self { b_lam, ..self }.with_laminar_line())
     }
 
     /// Same characteristic referred to another reference temperature
@@ -228,6 +241,13 @@ impl FlowCharacteristic {
         self.rho_ref
     }
 
+    /// The same characteristic with its laminar line's slope computed from
+    /// its own `b`, `m` and `b_lam`.
+    fn with_laminar_line(self) -> Self {
+        let (w_lam, _) = self.subsonic(self.b_lam);
+        Self { lam_slope: w_lam / (1.0 - self.b_lam), ..self }
+    }
+
     /// Subsonic law `[1 − ((r − b)/(1 − b))²]^m` and its derivative with
     /// respect to `r`, for `b <= r <= b_lam`.
     fn subsonic(&self, r: f64) -> (f64, f64) {
@@ -255,8 +275,7 @@ impl FlowCharacteristic {
         } else if r <= self.b_lam {
             self.subsonic(r)
         } else {
-            let (w_lam, _) = self.subsonic(self.b_lam);
-            let g = w_lam / (1.0 - self.b_lam);
+            let g = self.lam_slope;
             (g * (1.0 - r), -g)
         }
     }
@@ -319,6 +338,36 @@ impl FlowCharacteristic {
         }
     }
 
+    /// [`mass_flow`](Self::mass_flow) and
+    /// [`mass_flow_derivatives`](Self::mass_flow_derivatives) together,
+    /// `(ṁ, ∂ṁ/∂p_a, ∂ṁ/∂p_b)`: the same numbers, bit for bit, from one
+    /// evaluation of `ω(r)` (the junction solve's Newton steps need both).
+    pub fn mass_flow_and_derivatives(&self, p_a: f64, t_a: f64, p_b: f64, t_b: f64) -> (f64, f64, f64) {
+        // The flow and slopes from `p_up` to `p_down < p_up`, as
+        // `forward_flow` and `forward_derivatives` give them.
+        let forward = |p_up: f64, t_up: f64, p_down: f64| -> (f64, f64, f64) {
+            let Some(k) = self.upstream_factor(p_up, t_up) else {
+                return (0.0, 0.0, 0.0);
+            };
+            let r = p_down / p_up;
+            let (w, slope) = self.omega_and_slope(r);
+            let flow = k * p_up * w;
+            if r <= 0.0 {
+                return (flow, k, 0.0);
+            }
+            (flow, k * (w - r * slope), k * slope)
+        };
+        if p_a > p_b {
+            forward(p_a, t_a, p_b)
+        } else if p_b > p_a {
+            let (m, d_up, d_down) = forward(p_b, t_b, p_a);
+            (-m, -d_down, -d_up)
+        } else {
+            let (da, db) = self.mass_flow_derivatives(p_a, t_a, p_b, t_b);
+            (self.mass_flow(p_a, t_a, p_b, t_b), da, db)
+        }
+    }
+
     /// Analytic partial derivatives `(∂ṁ/∂p_a, ∂ṁ/∂p_b)` (kg/(s·Pa)) of
     /// [`mass_flow`](Self::mass_flow), for Newton steps and Jacobians.
     ///
@@ -345,8 +394,7 @@ impl FlowCharacteristic {
     /// upstream temperature's through K_T ∝ T_up^(−½) (Eq. 35):
     /// ∂ṁ/∂T_up = −ṁ/(2 T_up).
     pub fn mass_flow_gradient(&self, p_a: f64, t_a: f64, p_b: f64, t_b: f64) -> [f64; 4] {
-        let (da, db) = self.mass_flow_derivatives(p_a, t_a, p_b, t_b);
-        let m = self.mass_flow(p_a, t_a, p_b, t_b);
+        let (m, da, db) = self.mass_flow_and_derivatives(p_a, t_a, p_b, t_b);
         let (dta, dtb) = if m > 0.0 {
             (-0.5 * m / t_a, 0.0)
         } else if m < 0.0 {
@@ -402,6 +450,52 @@ mod tests {
         assert_eq!(f.rho_ref(), 1.185);
         let g = f.with_subsonic_index(0.7).unwrap().with_laminar_ratio(0.99).unwrap().with_reference(288.15, 1.225).unwrap();
         assert_eq!((g.m(), g.b_lam(), g.t_ref(), g.rho_ref()), (0.7, 0.99, 288.15, 1.225));
+    }
+
+    #[test]
+    fn flow_and_slopes_together_are_the_separate_numbers_bit_for_bit() {
+        let laws = [
+            fc(0.3),
+            fc(0.0).with_subsonic_index(0.7).unwrap(),
+            fc(0.45).with_subsonic_index(1.0).unwrap().with_laminar_ratio(0.99).unwrap(),
+            fc(0.2).with_subsonic_index(0.35).unwrap().with_reference(288.15, 1.225).unwrap(),
+        ];
+        let pressures = [0.0, -1.0, 0.5 * BAR, 0.999 * BAR, 0.9995 * BAR, BAR, 1.0005 * BAR, 2.0 * BAR, 6.0 * BAR, f64::NAN];
+        let temperatures = [293.15, 250.0, 0.0, f64::NAN];
+        for f in &laws {
+            for &pa in &pressures {
+                for &pb in &pressures {
+                    for &ta in &temperatures {
+                        let tb = 310.0;
+                        let (m, da, db) = f.mass_flow_and_derivatives(pa, ta, pb, tb);
+                        let (ea, eb) = f.mass_flow_derivatives(pa, ta, pb, tb);
+                        let e = f.mass_flow(pa, ta, pb, tb);
+                        let same = |x: f64, y: f64| x.to_bits() == y.to_bits() || (x.is_nan() && y.is_nan());
+                        assert!(
+                            same(m, e) && same(da, ea) && same(db, eb),
+                            "{f:?} p_a {pa} T_a {ta} p_b {pb}: {:?} vs {:?}",
+                            (m, da, db),
+                            (e, ea, eb)
+                        );
+                    }
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn the_laminar_line_follows_the_law_it_continues() {
+        // ω is continuous at b_lam whatever m and b_lam (the cached slope is
+        // recomputed by every builder that changes them)
+        for f in [
+            fc(0.3),
+            fc(0.3).with_subsonic_index(0.8).unwrap(),
+            fc(0.3).with_laminar_ratio(0.95).unwrap().with_subsonic_index(0.3).unwrap(),
+        ] {
+            let below = f.omega(f.b_lam());
+            let above = f.omega(f.b_lam() + 1e-12);
+            assert!(rel(below, above) < 1e-8, "{f:?}: {below} vs {above}");
+        }
     }
 
     #[test]

@@ -396,9 +396,8 @@ pub fn search<'a>(
         // given to every candidate in round 2 they cost the leak of a leak +
         // delay pair its fresh refit; given only to the dropped ones they
         // name the laminar leak behind a named delay)
-        let projected_start = opts.projected_start;
         let projection =
-            if opts.screen_prepare > 0 || projected_start { calibration_jacobian(base, experiments, &current, opts) } else { None };
+            if opts.screen_prepare > 0 || opts.projected_start { calibration_jacobian(base, experiments, &current, opts) } else { None };
         // each tried effect with its projected start (crate::candidates, "Projected starts")
         let tried: Vec<(&dyn Effect, Vec<Vec<f64>>)> = match projection {
             Some((reference, spent)) => {
@@ -413,7 +412,7 @@ pub fn search<'a>(
                     if opts.screen_prepare == 0 || (rank < opts.screen_prepare && s.dic < 0.0) {
                         out.evaluations += s.sims;
                         let starts: Vec<Vec<f64>> =
-                            s.starts.iter().filter(|(d, _)| projected_start && *d < -th.ic).map(|(_, v)| v.clone()).collect();
+                            s.starts.iter().filter(|(d, _)| opts.projected_start && *d < -th.ic).map(|(_, v)| v.clone()).collect();
                         kept.push((tried[i], starts));
                     } else {
                         let mut c = Candidate::new(round, tried[i].name());
