@@ -60,9 +60,7 @@ pub fn restriction_flow_slopes(fc: &FlowCharacteristic, opening: f64, a: &GasSta
     }
     // `restriction_flow`'s numbers, with the slopes from the same ω(r)
     let (m, da, db) = fc.mass_flow_and_derivatives(a.p, a.t, b.p, b.t);
-    let mdot = opening * m;
-    let h_up = if mdot >= 0.0 { a.h } else { b.h };
-    (PortFlow { mdot, edot: mdot * h_up + g_heat * (a.t - b.t) }, opening * da, opening * db)
+    (carried(opening * m, a, b, g_heat), opening * da, opening * db)
 }
 
 /// Flow into port `port` (0 = a, 1 = b) of a two-port restriction carrying
@@ -143,7 +141,13 @@ pub fn restriction_flow(fc: &FlowCharacteristic, opening: f64, a: &GasState, b: 
     if opening <= 0.0 {
         return PortFlow { mdot: 0.0, edot: g_heat * (a.t - b.t) };
     }
-    let mdot = opening * fc.mass_flow(a.p, a.t, b.p, b.t);
+    carried(opening * fc.mass_flow(a.p, a.t, b.p, b.t), a, b, g_heat)
+}
+
+/// The flow into port a of a restriction passing `mdot` from a to b: the
+/// mass flow with the upstream side's enthalpy and the port conduction
+/// G·(T_a − T_b) (isenthalpic throttling, paper Eq. 7, 9/10).
+fn carried(mdot: f64, a: &GasState, b: &GasState, g_heat: f64) -> PortFlow {
     let h_up = if mdot >= 0.0 { a.h } else { b.h };
     PortFlow { mdot, edot: mdot * h_up + g_heat * (a.t - b.t) }
 }
