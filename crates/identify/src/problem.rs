@@ -178,11 +178,40 @@ impl<'a> Problem<'a> {
     /// samples are read between output points by a cubic curve, whose
     /// error at a valve's pressure edge on a 4 ms grid biased the skew by
     /// half a millisecond).
+    ///
+    /// Only the experiment's channels are recorded (the other columns stay
+    /// empty): when they are all block signals an output row then costs no
+    /// model evaluation, and the numbers are the same
+    /// ([`solve::SimOptions::record_only`]). [`Problem::simulate_with`]
+    /// records more columns, [`Problem::simulate_all`] every one.
     pub fn simulate(&self, k: usize, values: &[f64], interval: f64) -> Result<solve::SimResult, String> {
+        self.simulate_with(k, values, interval, &[])
+    }
+
+    /// [`Problem::simulate`] recording the columns `extra` too.
+    pub fn simulate_with(&self, k: usize, values: &[f64], interval: f64, extra: &[String]) -> Result<solve::SimResult, String> {
+        let channels = self.experiments[k].channels.iter().map(|c| c.signal.clone()).chain(extra.iter().cloned()).collect();
+        self.simulate_recording(k, values, interval, Some(channels))
+    }
+
+    /// [`Problem::simulate`] recording every output column (for the report's
+    /// phases and regressors).
+    pub fn simulate_all(&self, k: usize, values: &[f64], interval: f64) -> Result<solve::SimResult, String> {
+        self.simulate_recording(k, values, interval, None)
+    }
+
+    fn simulate_recording(
+        &self,
+        k: usize,
+        values: &[f64],
+        interval: f64,
+        record_only: Option<Vec<String>>,
+    ) -> Result<solve::SimResult, String> {
         let flat = self.netlist(k, values)?;
         let e = &self.experiments[k];
         let interval = if self.sensors.fits_skew() { interval.min(e.median_interval()) } else { interval };
-        simulate_netlist(&flat, self.horizon * e.duration() + self.sensors.skew_bound(), interval, &self.settings)
+        let duration = self.horizon * e.duration() + self.sensors.skew_bound();
+        simulate_netlist_recording(&flat, duration, interval, &self.settings, record_only)
     }
 
     /// Rows of experiment k at its fitted samples from a simulation
@@ -357,26 +386,38 @@ pub fn simulation_count() -> (usize, f64, f64) {
 
 /// Simulate a netlist for `duration` seconds with output every `interval`.
 pub fn simulate_netlist(flat: &FlatNetlist, duration: f64, interval: f64, s: &SimSettings) -> Result<solve::SimResult, String> {
+    simulate_netlist_recording(flat, duration, interval, s, None)
+}
+
+/// [`simulate_netlist`] recording only the columns `record_only` names
+/// (every column if `None`; [`solve::SimOptions::record_only`]).
+pub fn simulate_netlist_recording(
+    flat: &FlatNetlist,
+    duration: f64,
+    interval: f64,
+    s: &SimSettings,
+    record_only: Option<Vec<String>>,
+) -> Result<solve::SimResult, String> {
     use std::sync::atomic::Ordering::Relaxed;
     let clock = std::time::Instant::now();
-    let out = simulate_netlist_uncounted(flat, duration, interval, s);
+    let run = || -> Result<solve::SimResult, String> {
+        let circuit = graph::build(flat).map_err(|e| e.to_string())?;
+        let mut opts = solve::options_from(&circuit.simulation).map_err(|e| e.to_string())?;
+        opts.cycles = None;
+        opts.t_end = duration.max(1e-6);
+        opts.rtol = s.rtol;
+        opts.atol = s.atol;
+        opts.sample_interval = interval;
+        opts.max_step = opts.max_step.min(s.max_step);
+        opts.record_only = record_only;
+        let mut model = solve::Model::new(circuit);
+        solve::simulate(&mut model, &opts).map_err(|e| e.to_string())
+    };
+    let out = run();
     SIMULATIONS.fetch_add(1, Relaxed);
     SIMULATED_NS.fetch_add(clock.elapsed().as_nanos() as u64, Relaxed);
     SIMULATED_SECONDS.fetch_add((duration * 1e6) as u64, Relaxed);
     out
-}
-
-fn simulate_netlist_uncounted(flat: &FlatNetlist, duration: f64, interval: f64, s: &SimSettings) -> Result<solve::SimResult, String> {
-    let circuit = graph::build(flat).map_err(|e| e.to_string())?;
-    let mut opts = solve::options_from(&circuit.simulation).map_err(|e| e.to_string())?;
-    opts.cycles = None;
-    opts.t_end = duration.max(1e-6);
-    opts.rtol = s.rtol;
-    opts.atol = s.atol;
-    opts.sample_interval = interval;
-    opts.max_step = opts.max_step.min(s.max_step);
-    let mut model = solve::Model::new(circuit);
-    solve::simulate(&mut model, &opts).map_err(|e| e.to_string())
 }
 
 /// A column of a simulation interpolated at the experiment's samples.

@@ -234,7 +234,7 @@ fn trace_of(
     sensors: &SensorModel,
 ) -> Result<(Trace, Vec<SensorEstimate>), String> {
     let e = &problem.experiments[k];
-    let result = problem.simulate(k, &s.fit.values, e.median_interval())?;
+    let result = problem.simulate_all(k, &s.fit.values, e.median_interval())?;
     let all: Vec<usize> = (0..e.times.len()).collect();
     let sampler = Sampler::new(&result, e, &all)?;
     let (raw, skew) = sampler.best(sensors);

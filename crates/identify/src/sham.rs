@@ -198,7 +198,13 @@ pub fn fit_sham(base: &FlatNetlist, experiments: &[Experiment], current: &Struct
         .map(|&k| -> Result<Sampled, String> {
             let e = &experiments[k];
             let samples = &problem.samples[k];
-            let result = problem.simulate(k, values, problem.intervals[k])?;
+            // the columns the phases are read from, besides the channels
+            let phase_columns: Vec<String> =
+                [topo.vessels.first().map(|v| format!("{v}.p")), topo.command.clone(), topo.piston.as_ref().map(|p| format!("{p}.x"))]
+                    .into_iter()
+                    .flatten()
+                    .collect();
+            let result = problem.simulate_with(k, values, problem.intervals[k], &phase_columns)?;
             let times: Vec<f64> = samples.iter().map(|&i| e.times[i]).collect();
             let get = |name: Option<String>| -> Vec<f64> {
                 name.and_then(|n| column_at(&result, &n, e, samples))

@@ -7,6 +7,11 @@
 //! The model is parsed and built once per iteration batch outside the timed
 //! region; each iteration simulates from the rest state through 20 cycles
 //! with no trace sampled, and criterion reports time per simulated cycle.
+//!
+//! A second group times one simulation as `pneumo discrepancy`'s fits run
+//! it: 3 cycles at the fits' settings (rtol 1e-6, atol 1e-5, max_step
+//! 50 ms), a row every 1 ms, recording every column or only the three
+//! measured channels (`SimOptions::record_only`, the same numbers).
 //! Run: `cargo bench -p pneumo-solve --bench meter_out`.
 
 use criterion::{criterion_group, criterion_main, BatchSize, Criterion, Throughput};
@@ -59,5 +64,35 @@ fn bench(c: &mut Criterion) {
     group.finish();
 }
 
-criterion_group!(benches, bench);
+/// One fit simulation (see the module header), recording `record_only`.
+fn fit_run(record_only: Option<Vec<String>>) -> (solve::Model, solve::SimOptions) {
+    let flat = graph::load(&Fs, &model_path()).expect("meter_out.json loads");
+    let circuit = graph::build(&flat).expect("meter_out.json builds");
+    let mut opts = solve::options_from(&circuit.simulation).expect("settings");
+    opts.cycles = Some(3);
+    opts.rtol = 1e-6;
+    opts.atol = 1e-5;
+    opts.max_step = opts.max_step.min(0.05);
+    opts.sample_interval = 1e-3;
+    opts.record_only = record_only;
+    (solve::Model::new(circuit), opts)
+}
+
+fn bench_fit_run(c: &mut Criterion) {
+    let mut group = c.benchmark_group("fit_run");
+    group.sample_size(30);
+    let channels = || Some(vec!["head.p".to_string(), "rod.p".to_string(), "piston.x".to_string()]);
+    for (name, record_only) in [("every_column", None), ("three_channels", channels())] {
+        group.bench_function(name, |b| {
+            b.iter_batched(
+                || fit_run(record_only.clone()),
+                |(mut model, opts)| solve::simulate(&mut model, &opts).expect("simulates").rows.len(),
+                BatchSize::SmallInput,
+            )
+        });
+    }
+    group.finish();
+}
+
+criterion_group!(benches, bench, bench_fit_run);
 criterion_main!(benches);

@@ -104,6 +104,10 @@ pub struct Model {
     /// derivatives, and those derivatives, while the blocks' buffers still
     /// hold that evaluation and no discrete state has changed since.
     last: LastEvaluation,
+    /// Whether phases 1–3 of an evaluation alone leave the model as a
+    /// whole evaluation would for every later one (see
+    /// [`Model::record_signals`]).
+    signals_alone: bool,
 }
 
 /// See [`Model::last_evaluation_at`].
@@ -228,6 +232,7 @@ impl Model {
         }
         let n_mech = circuit.mechanical_nodes.len();
         let blank = GasState { p: 101_325.0, t: 293.15, rho: 1.2, h: 0.0 };
+        let signals_alone = signals_stand_alone(&circuit, &slots);
         Model {
             gas,
             slots,
@@ -253,6 +258,7 @@ impl Model {
             record_scratch: Default::default(),
             input_values: circuit.interface.inputs.iter().map(|i| i.start).collect(),
             last: LastEvaluation::default(),
+            signals_alone,
             circuit,
         }
     }
@@ -451,66 +457,7 @@ impl Model {
         } = self;
         let n_states = *n_states;
 
-        // 1. kinematics of inertias
-        for (node, mn) in circuit.mechanical_nodes.iter().enumerate() {
-            let r = mn.inertia;
-            let slot = &mut slots[r.block];
-            circuit.instances[r.block].block.kinematics(&y[slot.states.clone()], &mut slot.mech);
-            node_mech[node] = slot.mech[mech_index(circuit, r)];
-        }
-        for slot in slots.iter_mut() {
-            for (k, &node) in slot.mech_nodes.iter().enumerate() {
-                slot.mech[k] = node_mech[node];
-            }
-        }
-        // 2. efforts
-        for (bi, slot) in slots.iter_mut().enumerate() {
-            if !slot.has_effort {
-                continue;
-            }
-            let ctx = Ctx { t, gas, states: &y[slot.states.clone()], pneumatic: &slot.gas, mechanical: &slot.mech, signals: &slot.sig };
-            circuit.instances[bi].block.effort(&ctx, &mut slot.gas_out);
-            for (k, &node) in slot.pneu_nodes.iter().enumerate() {
-                if slot.pneu_is_effort[k] {
-                    let s = slot.gas_out[k];
-                    if !(s.p.is_finite() && s.t.is_finite() && s.p > 0.0 && s.t > 0.0 && s.rho > 0.0) {
-                        return Err(ModelError::NonPhysical { t, id: circuit.instances[bi].id.clone(), p: s.p, temp: s.t });
-                    }
-                    node_gas[node] = s;
-                }
-            }
-        }
-        gather_gas(slots, node_gas);
-        // 3. signals (at rest: every block in its idle state, repeated until
-        // values settle, since a delayed signal then passes its input through)
-        let passes = if *at_rest { 1 + circuit.signal_order.len() } else { 1 };
-        for _ in 0..passes {
-            let mut changed = false;
-            for &bi in &circuit.signal_order {
-                let slot = &mut slots[bi];
-                for (k, &s) in slot.sig_in.iter().enumerate() {
-                    slot.sig[k] = signals[s];
-                }
-                let ctx = Ctx { t, gas, states: &y[slot.states.clone()], pneumatic: &slot.gas, mechanical: &slot.mech, signals: &slot.sig };
-                let block = &circuit.instances[bi].block;
-                if *at_rest {
-                    block.rest_signal_outputs(&ctx, &mut slot.sig_buf);
-                } else {
-                    block.signal_outputs(&ctx, &mut slot.sig_buf);
-                }
-                let out = &mut signals[slot.sig_out.clone()];
-                changed |= out != slot.sig_buf.as_slice();
-                out.copy_from_slice(&slot.sig_buf);
-            }
-            if !changed {
-                break;
-            }
-        }
-        for slot in slots.iter_mut() {
-            for (k, &s) in slot.sig_in.iter().enumerate() {
-                slot.sig[k] = signals[s];
-            }
-        }
+        signal_pass(circuit, slots, node_gas, node_mech, signals, *at_rest, gas, t, y)?;
         // 4. junction pressures
         for cluster in &circuit.junction_clusters {
             junction::solve_cluster(
@@ -712,6 +659,47 @@ impl Model {
         result
     }
 
+    /// The signal outputs `wanted` — (row column, signal index) pairs from
+    /// [`Model::signal_columns`] — at (t, y) into `row`; every other column
+    /// stays `None`. Only phases 1–3 of an evaluation run (kinematics,
+    /// efforts, signals): no junction solve, no flows, the cost of a fit's
+    /// 1 ms output grid (docs/performance.md). The values are those
+    /// [`Model::record`] gives, and the run goes on with the same numbers:
+    /// a later evaluation reads nothing phases 4–7 would have left behind —
+    /// unless a block that computes efforts or signals sits on a junction
+    /// node (it reads the junction's last pressure) or a junction cluster
+    /// has several nodes (their sweep starts from the last pressures); such
+    /// a model records in full.
+    pub fn record_signals(&mut self, t: f64, y: &[f64], wanted: &[(usize, usize)], row: &mut [Option<f64>]) -> Result<(), ModelError> {
+        if !self.signals_alone {
+            return self.record(t, y, row);
+        }
+        let l = &self.last;
+        if !(l.valid && l.t == t && l.y == y) {
+            self.last.valid = false;
+            let gas = self.gas.clone();
+            let Model { circuit, slots, node_gas, node_mech, signals, at_rest, .. } = self;
+            signal_pass(circuit, slots, node_gas, node_mech, signals, *at_rest, &*gas, t, y)?;
+        }
+        for &(column, signal) in wanted {
+            row[column] = Some(self.signals[signal]).filter(|v| v.is_finite());
+        }
+        Ok(())
+    }
+
+    /// (row column, signal index) of each output column that is a block's
+    /// signal output, by column name.
+    pub fn signal_columns(&self) -> Vec<(String, usize, usize)> {
+        let mut out = Vec::new();
+        for (slot, inst) in self.slots.iter().zip(&self.circuit.instances) {
+            let names = inst.block.ports().iter().filter(|p| p.kind == PortKind::SignalOut);
+            for ((k, p), signal) in names.enumerate().zip(slot.sig_out.clone()) {
+                out.push((format!("{}.{}", inst.id, p.name), slot.outputs.start + k, signal));
+            }
+        }
+        out
+    }
+
     /// The recording half of [`Model::record`], after the evaluation.
     fn record_outputs(&self, t: f64, y: &[f64], dy: &[f64], row: &mut [Option<f64>]) -> Result<(), ModelError> {
         for (bi, slot) in self.slots.iter().enumerate() {
@@ -751,6 +739,92 @@ impl Model {
     pub fn state_name(&self, i: usize) -> String {
         self_state_name(&self.circuit, &self.slots, i)
     }
+}
+
+/// Whether a model may record its signals after phases 1–3 alone
+/// ([`Model::record_signals`]): every junction cluster is one node, and no
+/// block that computes efforts or signals has a port on a junction node.
+fn signals_stand_alone(circuit: &Circuit, slots: &[Slot]) -> bool {
+    let junction = |node: usize| circuit.pneumatic_nodes.get(node).is_some_and(|n| n.causality == NodeCausality::Junction);
+    circuit.junction_clusters.iter().all(|c| c.len() == 1)
+        && slots.iter().filter(|s| s.has_effort || !s.sig_out.is_empty()).all(|s| !s.pneu_nodes.iter().any(|&n| junction(n)))
+}
+
+/// Phases 1–3 of an evaluation — kinematics, efforts, signals — which need
+/// no junction pressure and no flow (see the module header).
+#[allow(clippy::too_many_arguments)]
+fn signal_pass(
+    circuit: &Circuit,
+    slots: &mut [Slot],
+    node_gas: &mut [GasState],
+    node_mech: &mut [MechState],
+    signals: &mut [f64],
+    at_rest: bool,
+    gas: &dyn GasModel,
+    t: f64,
+    y: &[f64],
+) -> Result<(), ModelError> {
+    // 1. kinematics of inertias
+    for (node, mn) in circuit.mechanical_nodes.iter().enumerate() {
+        let r = mn.inertia;
+        let slot = &mut slots[r.block];
+        circuit.instances[r.block].block.kinematics(&y[slot.states.clone()], &mut slot.mech);
+        node_mech[node] = slot.mech[mech_index(circuit, r)];
+    }
+    for slot in slots.iter_mut() {
+        for (k, &node) in slot.mech_nodes.iter().enumerate() {
+            slot.mech[k] = node_mech[node];
+        }
+    }
+    // 2. efforts
+    for (bi, slot) in slots.iter_mut().enumerate() {
+        if !slot.has_effort {
+            continue;
+        }
+        let ctx = Ctx { t, gas, states: &y[slot.states.clone()], pneumatic: &slot.gas, mechanical: &slot.mech, signals: &slot.sig };
+        circuit.instances[bi].block.effort(&ctx, &mut slot.gas_out);
+        for (k, &node) in slot.pneu_nodes.iter().enumerate() {
+            if slot.pneu_is_effort[k] {
+                let s = slot.gas_out[k];
+                if !(s.p.is_finite() && s.t.is_finite() && s.p > 0.0 && s.t > 0.0 && s.rho > 0.0) {
+                    return Err(ModelError::NonPhysical { t, id: circuit.instances[bi].id.clone(), p: s.p, temp: s.t });
+                }
+                node_gas[node] = s;
+            }
+        }
+    }
+    gather_gas(slots, node_gas);
+    // 3. signals (at rest: every block in its idle state, repeated until
+    // values settle, since a delayed signal then passes its input through)
+    let passes = if at_rest { 1 + circuit.signal_order.len() } else { 1 };
+    for _ in 0..passes {
+        let mut changed = false;
+        for &bi in &circuit.signal_order {
+            let slot = &mut slots[bi];
+            for (k, &s) in slot.sig_in.iter().enumerate() {
+                slot.sig[k] = signals[s];
+            }
+            let ctx = Ctx { t, gas, states: &y[slot.states.clone()], pneumatic: &slot.gas, mechanical: &slot.mech, signals: &slot.sig };
+            let block = &circuit.instances[bi].block;
+            if at_rest {
+                block.rest_signal_outputs(&ctx, &mut slot.sig_buf);
+            } else {
+                block.signal_outputs(&ctx, &mut slot.sig_buf);
+            }
+            let out = &mut signals[slot.sig_out.clone()];
+            changed |= out != slot.sig_buf.as_slice();
+            out.copy_from_slice(&slot.sig_buf);
+        }
+        if !changed {
+            break;
+        }
+    }
+    for slot in slots.iter_mut() {
+        for (k, &s) in slot.sig_in.iter().enumerate() {
+            slot.sig[k] = signals[s];
+        }
+    }
+    Ok(())
 }
 
 fn self_state_name(circuit: &Circuit, slots: &[Slot], i: usize) -> String {
