@@ -234,17 +234,28 @@ fn write_in_place(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
     f.flush()
 }
 
+/// Names of the available signals listed in full when a name is unknown;
+/// a larger circuit lists this many and the count.
+pub const SIGNALS_LISTED: usize = 24;
+
+/// "unknown signal" as one short line: the name escaped and shortened, the
+/// nearest names, and the first [`SIGNALS_LISTED`] available signals.
+pub fn unknown_signal(name: &str, available: &[String]) -> AppError {
+    let near = blocks::suggest::did_you_mean(name, available.iter().map(String::as_str));
+    let listed = available.iter().take(SIGNALS_LISTED).map(String::as_str).collect::<Vec<_>>().join(", ");
+    let more = match available.len().checked_sub(SIGNALS_LISTED) {
+        Some(rest) if rest > 0 => format!(", … and {rest} more ({} in all)", available.len()),
+        _ => String::new(),
+    };
+    AppError::Usage(format!("unknown signal \"{}\"{near} (available: {listed}{more})", graph::escape(name)))
+}
+
 /// Columns to write: all, or the selection (each must exist).
 pub fn select_columns(result: &SimResult, wanted: &[String]) -> Result<Vec<usize>, AppError> {
     if wanted.is_empty() {
         return Ok((0..result.columns.len()).collect());
     }
-    wanted
-        .iter()
-        .map(|w| {
-            result.column(w).ok_or_else(|| AppError::Usage(format!("unknown signal \"{w}\" (available: {})", result.columns.join(", "))))
-        })
-        .collect()
+    wanted.iter().map(|w| result.column(w).ok_or_else(|| unknown_signal(w, &result.columns))).collect()
 }
 
 /// CSV text: header `t,<id>.<signal>...` in SI units; undefined values are empty cells.

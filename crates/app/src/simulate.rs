@@ -66,7 +66,7 @@ pub fn simulate(o: &SimulateOptions, warn: &mut dyn FnMut(&[graph::Warning])) ->
     // unknown signal names are reported before the run, not after it
     let names = prepared.model.output_names();
     if let Some(bad) = wanted.iter().find(|w| !names.contains(w)) {
-        return Err(AppError::Usage(format!("unknown signal \"{bad}\" (available: {})", names.join(", "))));
+        return Err(crate::output::unknown_signal(bad, &names));
     }
     warn(&prepared.warnings);
     let r = execute(prepared)?;

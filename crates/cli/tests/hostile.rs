@@ -468,3 +468,41 @@ fn a_50_mb_netlist_follows_the_memory_budget_and_names_its_unknown_type() {
     // a budget too small for the file: refused unread, naming the setting that raises it
     fails_cleanly(&dir, &["check", "--max-memory", "64", "long.json"], &["long.json", "MiB", "--max-memory"]);
 }
+
+#[test]
+fn long_text_in_a_wrong_place_is_quoted_short_whoever_wrote_the_message() {
+    // found by mutating the shipped netlists at random (2026-11-28): the
+    // JSON parser's own messages, a connection end and a signal name echoed
+    // a 400-character value whole
+    let dir = Scratch::new("long_text");
+    let m = local_model(&dir);
+    let original = std::fs::read_to_string(dir.path(&m)).expect("model");
+    let long = "9".repeat(400);
+    let cases = [
+        // a string where the parser wants a list: its message quotes the string
+        (original.replacen("\"connections\": [", &format!("\"connections\": \"{long}\", \"x\": ["), 1), "expected a sequence"),
+        // a string where it wants one of a few words
+        (original.replacen("\"model\": \"ideal\"", &format!("\"model\": \"{long}\""), 1), "unknown variant"),
+        // a connection end without a port
+        (original.replacen("[\"supply.port\", \"dcv.P\"]", &format!("[\"{long}\", \"dcv.P\"]"), 1), "is not of the form ID.PORT"),
+        // a connection end naming no component
+        (original.replacen("[\"supply.port\", \"dcv.P\"]", &format!("[\"x{long}.port\", \"dcv.P\"]"), 1), "no component"),
+    ];
+    for (k, (text, needle)) in cases.iter().enumerate() {
+        assert_ne!(text, &original, "case {k} changed nothing");
+        let file = format!("long_{k}.json");
+        dir.write(&file, text);
+        let err = fails_cleanly(&dir, &["check", &file], &[needle, "characters)"]);
+        assert!(err.len() < 400, "case {k}: {err}");
+    }
+    // a signal name: escaped, shortened, and the list of signals bounded
+    let err = fails_cleanly(
+        &dir,
+        &["simulate", &m, "--t-end", "0.1", "--signals", &long, "--out", "o.csv"],
+        &["unknown signal", "(400 characters)"],
+    );
+    assert!(err.len() < MAX_LINE, "{err}");
+    let err =
+        fails_cleanly(&dir, &["simulate", &m, "--t-end", "0.1", "--signals", "head.pp", "--out", "o.csv"], &["did you mean", "\"head.p\""]);
+    assert!(err.contains("head.T"), "{err}");
+}

@@ -185,11 +185,11 @@ fn build_concrete(flat: &FlatNetlist, drive: Drive, resolved: &crate::params::Re
 
     // 2. resolve connection ends
     let resolve = |r: &str| -> Result<PortRef, GraphError> {
-        let (id, port) = split_ref(r).ok_or_else(|| GraphError::BadRef { reference: r.to_string() })?;
-        let &block = by_id.get(id).ok_or_else(|| GraphError::UnknownComponent { reference: r.to_string(), id: id.to_string() })?;
+        let (id, port) = split_ref(r).ok_or_else(|| GraphError::BadRef { reference: crate::escape(r) })?;
+        let &block = by_id.get(id).ok_or_else(|| GraphError::UnknownComponent { reference: crate::escape(r), id: crate::escape(id) })?;
         let ports = instances[block].block.ports();
         let port = ports.iter().position(|p| p.name == port).ok_or_else(|| GraphError::UnknownPort {
-            reference: r.to_string(),
+            reference: crate::escape(r),
             ports: ports.iter().map(|p| p.name).collect::<Vec<_>>().join(", "),
         })?;
         Ok(PortRef { block, port })

@@ -87,7 +87,7 @@ pub fn parse(text: &str, origin: &str) -> Result<Netlist, GraphError> {
         file: origin.to_string(),
         line: e.line(),
         column: e.column(),
-        message: e.to_string().split(" at line ").next().unwrap_or_default().to_string(),
+        message: units::show::quoting(e.to_string().split(" at line ").next().unwrap_or_default()),
     })
 }
 

@@ -201,7 +201,7 @@ pub fn parse_csv(text: &str, origin: &str) -> Result<Dataset, DataError> {
                     line,
                     column: t_col + 1,
                     name: "t".into(),
-                    message: format!("time {t} s does not increase (previous sample {prev} s)"),
+                    message: format!("time {} s does not increase (previous sample {} s)", units::show::num(t), units::show::num(prev)),
                 });
             }
         }
@@ -392,6 +392,9 @@ mod tests {
         assert!(e.contains("c.csv:1") && e.contains("\"t\""), "{e}");
         let e = parse_csv("t,p\n0,1\n0.2,1\n0.1,1\n", "d.csv").unwrap_err().to_string();
         assert!(e.contains("d.csv:4") && e.contains("does not increase"), "{e}");
+        // an extreme time prints as a number, not 309 digits
+        let e = parse_csv("t,p\n0,1\n1e308,1\n30,1\n", "d.csv").unwrap_err().to_string();
+        assert!(e.contains("time 30 s does not increase (previous sample 1e308 s)"), "{e}");
         let e = parse_csv("t,p\n0,1\n,2\n", "e.csv").unwrap_err().to_string();
         assert!(e.contains("e.csv:3") && e.contains("time is missing"), "{e}");
         assert!(parse_csv("", "f.csv").unwrap_err().to_string().contains("empty"));

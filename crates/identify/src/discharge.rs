@@ -147,14 +147,19 @@ impl DischargeData {
         for i in 0..t.len() {
             let p_ok = p[i].is_finite() && p[i] > 0.0;
             if !t[i].is_finite() || !p_ok {
-                return Err(DischargeError::BadData(format!("sample {}: t = {}, p = {} (need finite t and p > 0)", i + 1, t[i], p[i])));
+                return Err(DischargeError::BadData(format!(
+                    "sample {}: t = {}, p = {} (need finite t and p > 0)",
+                    i + 1,
+                    units::show::num(t[i]),
+                    units::show::num(p[i])
+                )));
             }
             if i > 0 && t[i] <= t[i - 1] {
-                return Err(DischargeError::BadData(format!("sample {}: time {} does not increase", i + 1, t[i])));
+                return Err(DischargeError::BadData(format!("sample {}: time {} does not increase", i + 1, units::show::num(t[i]))));
             }
             if let Some(tt) = &temperature {
                 if !(tt[i].is_finite() && tt[i] > 0.0) {
-                    return Err(DischargeError::BadData(format!("sample {}: T = {} K", i + 1, tt[i])));
+                    return Err(DischargeError::BadData(format!("sample {}: T = {} K", i + 1, units::show::num(tt[i]))));
                 }
             }
         }

@@ -230,7 +230,7 @@ pub fn parse(text: &str, origin: &str) -> Result<Manifest, ManifestError> {
         file: origin.to_string(),
         line: e.line(),
         column: e.column(),
-        message: printable(e.to_string().split(" at line ").next().unwrap_or_default()),
+        message: units::show::quoting(e.to_string().split(" at line ").next().unwrap_or_default()),
     })?;
     if m.experiments.is_empty() {
         return Err(ManifestError::Invalid { file: origin.into(), message: "\"experiments\" is empty".into() });

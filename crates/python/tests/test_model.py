@@ -213,6 +213,16 @@ def test_plot_draws_one_panel_per_quantity(meter_out):
     assert buf.getvalue().startswith(b"\x89PNG")
 
 
+def test_an_unknown_signal_is_one_short_line_whatever_its_name(meter_out):
+    r = meter_out.simulate(t_end=0.05)
+    long = "9" * 400
+    with pytest.raises(KeyError) as caught:
+        r[long]
+    message = str(caught.value)
+    assert "(402 characters)" in message and "available: " in message, message
+    assert len(message) < 1000 and "9" * 30 not in message, message
+
+
 def test_python_dash_m_is_the_command_line(cli):
     assert cli("--version").stdout.startswith("pneumo ")
     assert "chamber" in cli("blocks").stdout and "chamber" in pneumo.blocks()

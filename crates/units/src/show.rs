@@ -15,7 +15,7 @@
 //! assert_eq!(fixed(1e300, 4), "1.0000e300");
 //! assert_eq!(text("a\u{1b}[2Jb"), "a\\u{1b}[2Jb");
 //! let long = "1".repeat(100_000);
-//! assert_eq!(text(&long), format!("{}… (100000 characters)", "1".repeat(60)));
+//! assert_eq!(text(&long), format!("{}… (100000 characters)", "1".repeat(20)));
 //! ```
 
 use std::fmt::Write;
@@ -109,17 +109,32 @@ pub fn line(message: &str) -> String {
 
 /// Text from the input, for a message: hidden characters ([`is_hidden`])
 /// shown as `\u{..}`; more than [`TEXT_MAX`] characters shortened to the
-/// first [`TEXT_KEPT`], an ellipsis and the original length.
+/// first [`TEXT_KEPT`] (the first 20 when those hold a run of more than 20
+/// digits: a number is never spelled out in dozens of them), an ellipsis
+/// and the original length.
 pub fn text(s: &str) -> String {
     let mut out = String::with_capacity(s.len().min(4 * TEXT_MAX));
     let long = s.chars().nth(TEXT_MAX).is_some();
     let keep = if long { TEXT_KEPT } else { TEXT_MAX };
-    let kept: String = s.chars().take(keep).collect();
+    let mut kept: String = s.chars().take(keep).collect();
+    if long && longest_digit_run(&kept) > BRIEF_KEPT {
+        // a number spelled out in digits is named by its start, as `brief` does
+        kept = s.chars().take(BRIEF_KEPT).collect();
+    }
     out.push_str(&line(&kept));
     if long {
         let _ = write!(out, "… ({} characters)", s.chars().count());
     }
     out
+}
+
+/// Characters [`brief`] keeps of a longer text, and [`text`] of a long
+/// one whose start is a run of digits.
+const BRIEF_KEPT: usize = 20;
+
+/// Longest run of ASCII digits in `s`.
+fn longest_digit_run(s: &str) -> usize {
+    s.split(|c: char| !c.is_ascii_digit()).map(str::len).max().unwrap_or(0)
 }
 
 /// Text from the input quoted briefly, as [`text`] does but keeping only
@@ -129,8 +144,43 @@ pub fn brief(s: &str) -> String {
     if s.chars().nth(24).is_none() {
         return line(s);
     }
-    let kept: String = s.chars().take(20).collect();
+    let kept: String = s.chars().take(BRIEF_KEPT).collect();
     format!("{}… ({} characters)", line(&kept), s.chars().count())
+}
+
+/// A message made by another library (a JSON parser's "invalid type:
+/// string \"…\", expected …", "unknown variant `…`") that quotes the input:
+/// every part between double quotes or backquotes goes through [`text`]
+/// (escaped and shortened), the rest through [`line`]. A quote left open
+/// shortens what follows it likewise.
+pub fn quoting(message: &str) -> String {
+    let mut out = String::with_capacity(message.len().min(8 * TEXT_MAX));
+    let mut rest = message;
+    while let Some(open) = rest.find(['"', '`']) {
+        let quote = rest[open..].chars().next().unwrap_or('"');
+        out.push_str(&line(&rest[..open]));
+        out.push(quote);
+        let inner = &rest[open + 1..];
+        let mut escaped = false;
+        let close = inner.char_indices().find(|&(_, c)| {
+            let ends = c == quote && !escaped;
+            escaped = quote == '"' && c == '\\' && !escaped;
+            ends
+        });
+        match close {
+            Some((end, _)) => {
+                out.push_str(&text(&inner[..end]));
+                out.push(quote);
+                rest = &inner[end + 1..];
+            }
+            None => {
+                out.push_str(&text(inner));
+                rest = "";
+            }
+        }
+    }
+    out.push_str(&line(rest));
+    out
 }
 
 #[cfg(test)]
@@ -195,5 +245,20 @@ mod tests {
         assert!(shown.chars().count() < TEXT_KEPT + 30, "{shown}");
         // escapes of the kept part never grow without bound
         assert!(text(&"\u{1b}".repeat(10_000)).len() < 10 * TEXT_KEPT, "{}", text(&"\u{1b}".repeat(10_000)));
+    }
+
+    #[test]
+    fn quoted_input_inside_a_library_message_is_shortened() {
+        let digits = "9".repeat(400);
+        let m = quoting(&format!("invalid type: string \"{digits}\", expected a sequence"));
+        assert_eq!(m, format!("invalid type: string \"{}… (400 characters)\", expected a sequence", "9".repeat(BRIEF_KEPT)));
+        let words = "ab ".repeat(100);
+        assert_eq!(quoting(&format!("`{words}`")), format!("`{}… (300 characters)`", &words[..TEXT_KEPT]));
+        let m = quoting(&format!("unknown variant `{digits}`, expected `given` or `rest`"));
+        assert!(m.starts_with("unknown variant `999") && m.ends_with("(400 characters)`, expected `given` or `rest`"), "{m}");
+        // an escaped quote stays inside its string; a quote left open is shortened too
+        assert_eq!(quoting(r#"string "a\"b", expected x"#), r#"string "a\"b", expected x"#);
+        assert!(quoting(&format!("bad \"{digits}")).ends_with("(400 characters)"));
+        assert_eq!(quoting("no\nquotes"), "no\\u{a}quotes");
     }
 }

@@ -437,7 +437,7 @@ mod tests {
     }
 
     fn declare(text: &str) -> Result<UserEffect, String> {
-        let spec: UserEffectSpec = serde_json::from_str(text).map_err(|e| format!("json: {e}"))?;
+        let spec: UserEffectSpec = serde_json::from_str(text).map_err(|e| format!("json: {}", units::show::quoting(&e.to_string())))?;
         UserEffect::declare(&spec, &meter_out())
     }
 

@@ -23,6 +23,21 @@ __all__ = ["Model", "Result", "load", "loads"]
 PathLike = Union[str, "os.PathLike[str]"]
 
 
+#: Signals listed in full by an "unknown signal" message; a larger circuit
+#: lists this many and the count (as the command line does).
+SIGNALS_LISTED = 24
+
+
+def _unknown_signal(name: object, columns: Sequence[str]) -> str:
+    """One short line: the name's repr shortened, the first signals, the count."""
+    shown = repr(name)
+    if len(shown) > 200:
+        shown = f"{shown[:20]}… ({len(shown)} characters)"
+    listed = ", ".join(columns[:SIGNALS_LISTED])
+    more = f", … and {len(columns) - SIGNALS_LISTED} more ({len(columns)} in all)" if len(columns) > SIGNALS_LISTED else ""
+    return f"unknown signal {shown} (available: {listed}{more})"
+
+
 def load(path: PathLike) -> "Model":
     """Read a netlist file (and the subsystem files it names).
 
@@ -273,7 +288,7 @@ class Result:
         try:
             k = self._columns.index(name)
         except ValueError:
-            raise KeyError(f"unknown signal {name!r} (available: {', '.join(self._columns)})") from None
+            raise KeyError(_unknown_signal(name, self._columns)) from None
         return self._array()[:, k + 1]
 
     def __contains__(self, name: object) -> bool:
@@ -322,7 +337,7 @@ class Result:
             if param not in self._raw.sensitivity_params:
                 asked = ", ".join(self._raw.sensitivity_params) or "none"
                 raise KeyError(f"no sensitivities to {param!r} (asked for: {asked})")
-            raise KeyError(f"unknown signal {signal!r} (available: {', '.join(self._columns)})")
+            raise KeyError(_unknown_signal(signal, self._columns))
         return np.frombuffer(data, dtype="<f8")
 
     @property
