@@ -506,3 +506,41 @@ fn long_text_in_a_wrong_place_is_quoted_short_whoever_wrote_the_message() {
         fails_cleanly(&dir, &["simulate", &m, "--t-end", "0.1", "--signals", "head.pp", "--out", "o.csv"], &["did you mean", "\"head.p\""]);
     assert!(err.contains("head.T"), "{err}");
 }
+
+#[test]
+fn a_run_whose_steps_collapse_stops_at_its_step_budget_naming_the_state() {
+    // found by mutating the shipped netlists at random (2026-11-28): a 5/2
+    // valve of 0.5 m³/(s·Pa) (3e10 L/min/bar) switching instantly took steps
+    // of 1e-9 s and would have run for hours on 0.5 s of circuit time
+    let dir = Scratch::new("step_budget");
+    let m = repo().join("models/sequence_ab.json");
+    let m = m.to_str().unwrap();
+    let err = fails_cleanly(
+        &dir,
+        &["simulate", m, "--t-end", "0.5", "--set", "valve_b.C=0.5", "--set", "valve_b.switching_time=0", "--summary", "s.json"],
+        &["integration stopped after 200000 steps", "largest error in cyl_b.", "simulation.max_step"],
+    );
+    assert!(err.contains("each about 1") && err.contains("e-9 s long"), "{err}");
+}
+
+#[test]
+fn a_record_whose_last_time_is_1e308_s_is_refused_before_the_discrepancy_run() {
+    // found by mutating the measured vessel tests at random (2026-11-28): a
+    // last sample at t = 1e308 s made every simulation of the run endless
+    let dir = Scratch::new("far_time");
+    let vessels = repo().join("models/examples/vessels");
+    for f in ["air_discharge.json", "air_discharge_experiments.json"] {
+        std::fs::copy(vessels.join(f), dir.path(f)).expect("copy");
+    }
+    let csv = std::fs::read_to_string(vessels.join("air_discharge.csv")).expect("data");
+    let mut rows: Vec<&str> = csv.lines().collect();
+    let last = rows.pop().expect("a row");
+    let moved = format!("1e308,{}", last.split_once(',').expect("t,p,T").1);
+    rows.push(&moved);
+    dir.write("air_discharge.csv", &(rows.join("\n") + "\n"));
+    fails_cleanly(
+        &dir,
+        &["discrepancy", "air_discharge.json", "--experiments", "air_discharge_experiments.json", "--report", "rep"],
+        &["experiment \"air_discharge\"", "t = 1e308 s", "steps of 0.05 s", "time column"],
+    );
+}

@@ -146,7 +146,7 @@ impl Experiment {
         let origin = time_origin.unwrap_or(data.times[0]);
         let first = data.times.partition_point(|&t| t < origin - 1e-12);
         if data.times.len() - first < 3 {
-            return Err(format!("{}: fewer than 3 samples after the time origin {origin} s", data.origin));
+            return Err(format!("{}: fewer than 3 samples after the time origin {} s", data.origin, units::show::num(origin)));
         }
         let times: Vec<f64> = data.times[first..].iter().map(|t| (t - origin).max(0.0)).collect();
         let pairs: Vec<(usize, String)> = match columns {

@@ -37,6 +37,42 @@ pub enum IdentifyError {
     Report(String),
 }
 
+/// Most integration steps of `max_step` one simulation of an experiment
+/// may plan: a run makes thousands of simulations of each experiment.
+pub const MAX_EXPERIMENT_STEPS: f64 = 1e6;
+/// Most rows one simulation of an experiment may record.
+pub const MAX_EXPERIMENT_ROWS: f64 = 1e7;
+
+/// Refuse an experiment whose simulation cannot fit, before any work: its
+/// duration in steps of the fits' `max_step`, and in recorded rows.
+fn check_size(e: &Experiment, opts: &Options) -> Result<(), IdentifyError> {
+    use units::show::{num, sig};
+    let duration = e.duration();
+    let steps = duration / opts.sim.max_step;
+    let interval = opts.fit_interval.min(e.median_interval());
+    let rows = duration / interval;
+    let name = units::show::text(&e.name);
+    if steps.is_nan() || steps > MAX_EXPERIMENT_STEPS {
+        return Err(IdentifyError::Setup(format!(
+            "experiment \"{name}\": its last sample is at t = {} s; a simulation of it would take at least {} steps of {} s, more than the {} a discrepancy run allows per experiment: check its time column and time_origin",
+            num(duration),
+            if steps.is_finite() { sig(steps, 3) } else { "1e308".into() },
+            num(opts.sim.max_step),
+            num(MAX_EXPERIMENT_STEPS)
+        )));
+    }
+    if rows.is_nan() || rows > MAX_EXPERIMENT_ROWS {
+        return Err(IdentifyError::Setup(format!(
+            "experiment \"{name}\": {} s sampled every {} s would record {} rows per simulation, more than the {} a discrepancy run allows: check its time column",
+            num(duration),
+            num(interval),
+            sig(rows, 3),
+            num(MAX_EXPERIMENT_ROWS)
+        )));
+    }
+    Ok(())
+}
+
 /// Run the workflow on `base` (the model as given) and the experiments.
 /// `calibrate` lists the baseline parameters to fit (see
 /// [`crate::params::default_calibration`]).
@@ -44,6 +80,9 @@ pub fn run(base: &FlatNetlist, experiments: &[Experiment], calibrate: &[CalibSpe
     let clock = std::time::Instant::now();
     if experiments.is_empty() {
         return Err(IdentifyError::Setup("no experiments".into()));
+    }
+    for e in experiments {
+        check_size(e, opts)?;
     }
     let all = catalogue();
     let declared = |n: &str| opts.user_effects.iter().any(|u| u.name == n);

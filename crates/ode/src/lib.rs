@@ -275,9 +275,11 @@ pub enum IntegratorError {
     /// rejected attempt (the one that keeps the step from growing).
     #[error("step size fell below {h:e} at t = {t:e} (largest error in component {index})")]
     StepSizeTooSmall { t: f64, h: f64, index: usize },
-    /// `max_steps` accepted steps were taken in one `advance` call.
-    #[error("too many steps ({steps}) before reaching the stop time, at t = {t:e}")]
-    TooManySteps { t: f64, steps: usize },
+    /// `max_steps` accepted steps were taken in one `advance` call; `h` is
+    /// the step proposed next and `index` the component with the largest
+    /// weighted error in the last attempt (the one that keeps the step small).
+    #[error("too many steps ({steps}) before reaching the stop time, at t = {t:e} (step {h:e}, largest error in component {index})")]
+    TooManySteps { t: f64, steps: usize, h: f64, index: usize },
     /// The right-hand side (or a root function) returned an error at time `t`
     /// at an accepted state, or at trial states until the step could not
     /// shrink further (see [`RhsError`]).

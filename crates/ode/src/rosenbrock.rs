@@ -333,6 +333,12 @@ impl Rosenbrock {
         &self.sens[k].s0
     }
 
+    /// The component with the largest weighted error in the last attempted
+    /// step (the one that keeps the step from growing).
+    pub fn largest_error(&self) -> usize {
+        self.largest_error
+    }
+
     /// Number of sensitivity columns.
     pub fn n_sensitivities(&self) -> usize {
         self.sens.len()
@@ -1241,7 +1247,7 @@ impl Integrator for Rosenbrock {
                 return Ok(Advance::Reached);
             }
             if steps >= self.opts.max_steps {
-                return Err(IntegratorError::TooManySteps { t: *t, steps });
+                return Err(IntegratorError::TooManySteps { t: *t, steps, h: h_new, index: self.largest_error });
             }
             h = h_new;
         }

@@ -345,6 +345,15 @@ pub enum SolveError {
     /// problem ill-posed or whose time scale is far below the others).
     #[error("integration failed: step size fell below {h:.1e} s at t = {} s (largest error in {state}; check that component's parameters, or raise simulation.rtol)", num(*t))]
     StepTooSmall { t: f64, h: f64, state: String },
+    /// The run took more steps than [`step_budget`] allows: a time scale
+    /// far below the circuit's others, or a law too rough for the
+    /// integrator, in the state named.
+    #[error(
+        "integration stopped after {steps} steps by t = {} s, each about {} s long (largest error in {state}): the circuit has a time scale far below the others; check that component's parameters (an implausibly large conductance, a tiny volume or mass); the limit is 20 steps of simulation.max_step per run, at least {MIN_STEP_BUDGET} (a smaller max_step allows more)",
+        units::show::sig(*t, 6),
+        units::show::sig(*h, 2)
+    )]
+    TooManySteps { t: f64, steps: usize, h: f64, state: String },
     #[error("more than {limit} events by t = {} s (chattering between modes?)", num(*t))]
     TooManyEvents { t: f64, limit: usize },
     #[error("at t = {} s the event conditions of {roots} still hold after handling them {rounds} times", num(*t))]
@@ -632,6 +641,7 @@ fn run(
     let mut next_sample = opts.sample_interval;
     let mut n_events = 0usize;
     let mut finished = false;
+    let budget = step_budget(opts);
     let mut step_ends: Vec<(f64, Vec<f64>)> = Vec::new();
     while !finished {
         if opts.cancel.as_ref().is_some_and(Cancel::is_cancelled) {
@@ -642,6 +652,7 @@ fn run(
         let mut samples: Vec<(f64, Vec<f64>, Vec<Vec<f64>>)> = Vec::new();
         let observing = observer.is_some();
         step_ends.clear();
+        let (t_advanced, steps_before) = (t, integrator.stats().steps);
         let advance = {
             let mut sys = System { model, error: None, jacobian: &mut jacobian, cancel: opts.cancel.as_ref(), sens: sens.as_deref_mut() };
             let interval = opts.sample_interval;
@@ -703,6 +714,11 @@ fn run(
                     tracker.record(ts, &ys, &result.rows[result.rows.len() - 1], &columns)?;
                 }
             }
+        }
+        let taken = integrator.stats().steps;
+        if taken >= budget && t < opts.t_end {
+            let h = (t - t_advanced) / (taken - steps_before).max(1) as f64;
+            return Err(SolveError::TooManySteps { t, steps: taken, h, state: model.state_name(integrator.largest_error()) });
         }
         let crossings = match advance {
             Advance::Reached if t >= opts.t_end => {
@@ -801,6 +817,26 @@ fn integrator_columns(integrator: &Rosenbrock) -> Vec<Vec<f64>> {
     (0..integrator.n_sensitivities()).map(|k| integrator.sensitivity(k).to_vec()).collect()
 }
 
+/// Fewest steps a run may take before it is stopped.
+pub const MIN_STEP_BUDGET: usize = 200_000;
+
+/// Most accepted steps a run may take: twenty times the steps of `max_step`
+/// that fill the run, and at least [`MIN_STEP_BUDGET`], at most 5·10⁷. A
+/// pneumatic circuit takes tens to thousands of steps per second of circuit
+/// time (meter-out: about 60); a run that needs 10⁵ times more has a
+/// component whose time scale is far below the others (a conductance of
+/// 10¹⁰ L/min/bar found by a random test took 9·10⁵ steps of 6e-8 s for
+/// 50 ms of circuit time), and would otherwise run for hours instead of
+/// saying so. Checked after every `advance` (its own limit is the same
+/// number), so a run stops within twice the budget.
+pub fn step_budget(opts: &SimOptions) -> usize {
+    let filled = 20.0 * opts.t_end / opts.max_step;
+    if filled.is_nan() {
+        return MIN_STEP_BUDGET;
+    }
+    filled.clamp(MIN_STEP_BUDGET as f64, 5e7) as usize
+}
+
 /// The integrator of a run: tolerances checked, absolute tolerances scaled
 /// by each state's typical size at `y`.
 pub(crate) fn integrator_for(model: &Model, opts: &SimOptions, y: &[f64]) -> Result<Rosenbrock, SolveError> {
@@ -819,7 +855,7 @@ pub(crate) fn integrator_for(model: &Model, opts: &SimOptions, y: &[f64]) -> Res
         h_init: None,
         h_max: opts.max_step,
         h_min: 1e-14,
-        max_steps: 50_000_000,
+        max_steps: step_budget(opts),
         root_tol: 1e-12,
         event_window: 0.0,
         event_window_per_step: opts.rtol,
@@ -856,6 +892,9 @@ pub(crate) fn advance_error(e: IntegratorError, model_error: Option<ModelError>,
         _ if cancelled => SolveError::Cancelled { t },
         (_, Some(model_error)) => model_error.into(),
         (IntegratorError::StepSizeTooSmall { t, h, index }, None) => SolveError::StepTooSmall { t, h, state: model.state_name(index) },
+        (IntegratorError::TooManySteps { t, steps, h, index }, None) => {
+            SolveError::TooManySteps { t, steps, h, state: model.state_name(index) }
+        }
         (e, None) => e.into(),
     }
 }

@@ -108,13 +108,16 @@ pub fn line(message: &str) -> String {
 }
 
 /// Text from the input, for a message: hidden characters ([`is_hidden`])
-/// shown as `\u{..}`; more than [`TEXT_MAX`] characters shortened to the
+/// shown as `\u{..}`; more than [`TEXT_MAX`] characters (or more than
+/// 2·[`TEXT_MAX`] bytes once escaped) shortened to the
 /// first [`TEXT_KEPT`] (the first 20 when those hold a run of more than 20
 /// digits: a number is never spelled out in dozens of them), an ellipsis
 /// and the original length.
 pub fn text(s: &str) -> String {
     let mut out = String::with_capacity(s.len().min(4 * TEXT_MAX));
-    let long = s.chars().nth(TEXT_MAX).is_some();
+    // long in characters, or in bytes once escaped (control characters shown
+    // as `\u{..}` and multi-byte letters can make 200 characters 1 kB)
+    let long = s.chars().nth(TEXT_MAX).is_some() || line(s).len() > 2 * TEXT_MAX;
     let keep = if long { TEXT_KEPT } else { TEXT_MAX };
     let mut kept: String = s.chars().take(keep).collect();
     if long && longest_digit_run(&kept) > BRIEF_KEPT {
@@ -243,6 +246,9 @@ mod tests {
         let shown = text(&long);
         assert!(shown.ends_with(&format!("… ({} characters)", TEXT_MAX + 1)), "{shown}");
         assert!(shown.chars().count() < TEXT_KEPT + 30, "{shown}");
+        // 150 characters that escape to 500 bytes are shortened too
+        let wide = "\u{e9}\u{2603}\u{1}".repeat(50);
+        assert_eq!(text(&wide), format!("{}… (150 characters)", line(&wide.chars().take(TEXT_KEPT).collect::<String>())));
         // escapes of the kept part never grow without bound
         assert!(text(&"\u{1b}".repeat(10_000)).len() < 10 * TEXT_KEPT, "{}", text(&"\u{1b}".repeat(10_000)));
     }
