@@ -214,7 +214,7 @@ def test_plot_draws_one_panel_per_quantity(meter_out):
 
 
 def test_an_unknown_signal_is_one_short_line_whatever_its_name(meter_out):
-    r = meter_out.simulate(t_end=0.05)
+    r = pneumo.load(meter_out).simulate(t_end=0.05)
     long = "9" * 400
     with pytest.raises(KeyError) as caught:
         r[long]
