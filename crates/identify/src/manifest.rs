@@ -239,12 +239,6 @@ pub fn parse(text: &str, origin: &str) -> Result<Manifest, ManifestError> {
     Ok(m)
 }
 
-/// `s` with control characters escaped (`\u{1b}`), for messages that quote
-/// the manifest's text.
-fn printable(s: &str) -> String {
-    s.chars().map(|c| if c.is_control() { c.escape_default().to_string() } else { c.to_string() }).collect()
-}
-
 /// "id.param=value" text of one `set` entry (numbers are SI).
 pub fn set_text(target: &str, value: &Value) -> Result<String, String> {
     match value {
@@ -285,8 +279,9 @@ pub struct Resolved {
 /// `read(path)` returns the text of a data file named in the manifest
 /// (paths as written, for the caller to resolve against the manifest).
 pub fn resolve(m: &Manifest, flat: &graph::FlatNetlist, read: &ReadData) -> Result<Resolved, String> {
-    // messages quote names and values from the manifest: escape what they echo
-    resolve_unescaped(m, flat, read).map_err(|e| printable(&e))
+    // messages quote names and values from the manifest: the project's one
+    // rule escapes what they echo and shortens every quoted part
+    resolve_unescaped(m, flat, read).map_err(|e| units::show::quoting(&e))
 }
 
 fn resolve_unescaped(m: &Manifest, flat: &graph::FlatNetlist, read: &ReadData) -> Result<Resolved, String> {
@@ -509,6 +504,13 @@ mod tests {
         .unwrap();
         let err = resolve(&bad, &flat, &read).unwrap_err();
         assert!(err.contains("friction.k0") && err.contains("not below"), "{err}");
+        // a hostile column target: escaped and shortened, one line
+        let name = format!("head\u{1b}[2J\n{}", "x".repeat(5000));
+        let quoted = serde_json::to_string(&name).unwrap();
+        let text = format!(r#"{{ "experiments": [ {{ "data": "a.csv", "columns": {{ "p1": {quoted} }} }} ] }}"#);
+        let err = resolve(&parse(&text, "m.json").unwrap(), &flat, &read).unwrap_err();
+        assert!(!err.contains('\u{1b}') && !err.contains('\n'), "{err}");
+        assert!(err.contains("\\u{1b}") && err.len() < 1000, "{} bytes: {err}", err.len());
     }
 
     #[test]
