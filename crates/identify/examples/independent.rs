@@ -103,9 +103,9 @@ fn main() -> Result<(), String> {
     if let Some(x) = std::env::var("SKEW").ok().and_then(|s| s.parse().ok()) {
         options.sensors.skew = x;
     }
-    // RECENTRE=1 turns the recentred starts on (Options::recentre)
-    if std::env::var("RECENTRE").is_ok() {
-        options.recentre = true;
+    // RECENTRE=0 turns the recentred starts off, RECENTRE=1 on (Options::recentre)
+    if let Ok(v) = std::env::var("RECENTRE") {
+        options.recentre = v != "0";
     }
     // FRESH=0 turns the fresh starts of the full-record fits off (Options::fresh_start)
     if std::env::var("FRESH").is_ok_and(|v| v == "0") {

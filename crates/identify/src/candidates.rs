@@ -64,8 +64,12 @@
 //! scores what it reached, so the ΔIC reported for a screened-out
 //! candidate is where its screen stopped. An effect without parameters
 //! (`real_gas`) is screened by a refit of the calibration on the screening
-//! horizon from the current model's short-record optimum, which costs one
-//! simulation and one Jacobian when it stalls there.
+//! horizon from the current model's short-record optimum, without the
+//! early stop: switched on, the effect first raises χ² and the
+//! calibration must move to show what it gives, which the linear prospect
+//! of the first iterate does not foresee (nominal `real_gas` seed 2:
+//! stopped at short-record ΔIC +203, it goes on to a full-record −3 044
+//! and is named); it is one fit of at most `screen_iter` step attempts.
 //!
 //! # Projected starts
 //! A calibration bent to imitate a missing effect makes every start above
@@ -124,8 +128,11 @@
 //! there replaces the short-record reference when its prior-penalised
 //! cost is lower, and is continued on the full records, kept when the
 //! full-record cost falls too — a better calibration is never credited to
-//! an effect. Opt-in (`Options::recentre`, off by default): measured, it did
-//! not rescue varied valve_delay seed 2 (docs/discrepancy.md).
+//! an effect. An effect without parameters (`real_gas`) gets the start as
+//! a refit of the calibration on the screening horizon from the recentred
+//! values, those parameters held. On by default since 2026-11-29
+//! (`Options::recentre`; docs/discrepancy.md, "Recentred starts on by
+//! default").
 //!
 //! # Phase B: [`fit_full`], [`refit_fresh`], [`judge`]
 //! The full-record fit from the short-record solution, restarted while it
@@ -571,12 +578,23 @@ pub fn prepare<'a>(
     // candidates then iterate from it (docs/discrepancy.md, "Run time").
     // An effect without parameters starts there too, with the effect on:
     // its screen is a refit of the calibration on the screening horizon
-    // from the current optimum, stopped when it stalls (module header).
+    // from the current optimum, without the early stop (module header,
+    // "Early stop of the screen").
     if let (Some(reference), true) = (&current.short, nests) {
         let mut nested = reference.values.clone();
         nested.extend(added.iter().map(|p| p.null.unwrap_or(p.start)));
-        let last_stage = FitOptions { horizons: vec![horizon], ..fit_opts.clone() };
+        let mut last_stage = FitOptions { horizons: vec![horizon], ..fit_opts.clone() };
+        if added.is_empty() {
+            last_stage.screen = None;
+        }
         shorts.push(fit_short_stages(&problem, &nested, &last_stage));
+        // an effect without parameters gets its recentred start the same
+        // way: the refit on the screening horizon, from the calibration's
+        // form parameters at their prior centres, held there
+        if added.is_empty() && recentred_start {
+            let from = starts.last().expect("the recentred start");
+            shorts.push(fit_short_stages(&hold_priors(&problem, from), from, &last_stage));
+        }
     }
     cand.evaluations += shorts.iter().map(|r| r.as_ref().map_or(0, |s| s.evaluations)).sum::<usize>();
     let mut errors: Vec<String> = shorts.iter().filter_map(|r| r.as_ref().err().cloned()).collect();
