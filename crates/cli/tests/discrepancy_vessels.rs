@@ -13,7 +13,7 @@
 //! verdict: the noise estimate of a channel logged between another's
 //! samples, the initial-state prior from a first sample seconds into the
 //! test, and the sham's calibration refit with parameters at their bounds.
-//! Each run takes 1–2 s.
+//! Each run takes a few seconds (about 6 s with another run beside it, 2026-11-29).
 
 mod common;
 
