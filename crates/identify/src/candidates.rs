@@ -128,13 +128,7 @@
 //! there replaces the short-record reference when its prior-penalised
 //! cost is lower, and is continued on the full records, kept when the
 //! full-record cost falls too — a better calibration is never credited to
-//! an effect. That refit is a reference, not a start: every candidate's
-//! starts (`prepare`'s `from`) are built from the current model's
-//! optimum as it was before it (started from the refit, the valve delay
-//! of nominal leak + delay 5 stopped at χ² 1.86 M instead of 0.66 M and
-//! the leak behind it was lost; docs/discrepancy.md, "Candidates start
-//! from the calibration, not from the round's reference"). An effect
-//! without parameters (`real_gas`) gets the start as
+//! an effect. An effect without parameters (`real_gas`) gets the start as
 //! a refit of the calibration on the screening horizon from the recentred
 //! values, those parameters held. On by default since 2026-11-29
 //! (`Options::recentre`; docs/discrepancy.md, "Recentred starts on by
@@ -468,14 +462,11 @@ pub fn short_name(p: &FitParam) -> String {
     p.name.split_once('.').map_or(p.name.as_str(), |(_, rest)| rest).to_string()
 }
 
-/// Phase A (see the module header). `from` is the current model's
-/// calibration the candidate starts from: its full-record optimum before
-/// the round's recentred refit (module header, "Recentred starts").
+/// Phase A (see the module header).
 pub fn prepare<'a>(
     base: &'a FlatNetlist,
     experiments: &'a [crate::experiment::Experiment],
     current: &Structure<'a>,
-    from: &[f64],
     effect: &'a dyn Effect,
     pass: Pass,
     opts: &Options,
@@ -486,7 +477,7 @@ pub fn prepare<'a>(
     let added = effect_params(effect, slot);
     let mut params = current.params.clone();
     params.extend(added.iter().cloned());
-    let mut start = from.to_vec();
+    let mut start = current.fit.values.clone();
     start.extend(added.iter().map(|p| p.start));
     let problem = problem_for(base, experiments, effects.clone(), params.clone(), opts);
     let mut cand = Candidate::new(pass.round, effect.name());
@@ -496,13 +487,13 @@ pub fn prepare<'a>(
     if !added.is_empty() && grid.len() > 1 {
         let scan_problem = problem.truncated(horizon);
         let base_values = match (pass.rescue, &current.short) {
-            (true, Some(s)) => s.values.as_slice(),
-            _ => from,
+            (true, Some(s)) => &s.values,
+            _ => &current.fit.values,
         };
         let mut scored: Vec<(f64, Vec<f64>)> = grid
             .par_iter()
             .filter_map(|g| {
-                let mut v = base_values.to_vec();
+                let mut v = base_values.clone();
                 v.extend(g.iter().copied());
                 Some((chi2(&scan_problem, &v).ok()?, v))
             })
@@ -521,7 +512,7 @@ pub fn prepare<'a>(
     // point is the effect's weakest, which the bending already imitates)
     let mut recentred_start = false;
     if opts.recentre && !pass.rescue {
-        if let Some(centred) = recentred(&current.params, from) {
+        if let Some(centred) = recentred(&current.params, &current.fit.values) {
             let mut from = centred.clone();
             from.extend(added.iter().map(|p| p.start));
             if !added.is_empty() && grid.len() > 1 {

@@ -128,9 +128,7 @@ pub struct Options {
     /// candidate is also started with the calibration's form parameters
     /// (those with a prior) back at their prior centres, and each round's
     /// current model is refitted from there too, the lower penalised cost
-    /// kept as the reference the candidates are judged against (their
-    /// starts stay built from the calibration before that refit). On by
-    /// default since 2026-11-29: on data of the model's own
+    /// kept. On by default since 2026-11-29: on data of the model's own
     /// form the calibrated form parameters and sensor gains imitate part of
     /// a missing wall heat exchange or dead volume, and the effect's other
     /// starts then end at its null (docs/discrepancy.md, "Recentred starts

@@ -367,11 +367,6 @@ pub fn search<'a>(
         if tried.is_empty() {
             break;
         }
-        // the candidates start from the current model's optimum as it is
-        // before the round's recentred refit below (crate::candidates,
-        // "Recentred starts": that refit is the reference they are judged
-        // against, not a start)
-        let calibrated = current.fit.values.clone();
         // the current model gets the candidates' recentred start too
         if opts.recentre {
             let before = current.short.clone();
@@ -443,10 +438,8 @@ pub fn search<'a>(
             }
             _ => tried.into_iter().map(|e| (e, Vec::new())).collect(),
         };
-        let mut preps: Vec<_> = tried
-            .par_iter()
-            .map(|(e, _)| prepare(base, experiments, &current, &calibrated, *e, Pass { round, rescue: false }, opts))
-            .collect();
+        let mut preps: Vec<_> =
+            tried.par_iter().map(|(e, _)| prepare(base, experiments, &current, *e, Pass { round, rescue: false }, opts)).collect();
         let best =
             |p: &[crate::candidates::Prepared]| p.iter().map(|p| p.short_dic).filter(|d| d.is_finite()).fold(f64::INFINITY, f64::min);
         let mut best_short = best(&preps);
@@ -463,10 +456,8 @@ pub fn search<'a>(
             && current.short.is_some()
             && best_short.partial_cmp(&-RESCUE_UNLESS) != Some(std::cmp::Ordering::Less)
         {
-            let again: Vec<_> = tried
-                .par_iter()
-                .map(|(e, _)| prepare(base, experiments, &current, &calibrated, *e, Pass { round, rescue: true }, opts))
-                .collect();
+            let again: Vec<_> =
+                tried.par_iter().map(|(e, _)| prepare(base, experiments, &current, *e, Pass { round, rescue: true }, opts)).collect();
             for (i, p) in again.into_iter().enumerate() {
                 let spent = preps[i].cand.evaluations + p.cand.evaluations;
                 if p.short_dic < preps[i].short_dic || preps[i].short_dic.is_nan() {
