@@ -131,7 +131,7 @@ fn main() -> Result<(), String> {
     println!("baseline rmse_n {:?} held-out {:.3}", s.baseline.rmse_normalized, s.baseline.heldout_rmse);
     for c in &s.candidates {
         println!(
-            "  r{} {:<18} [{} sims] dIC {:>10.1} chi2 {:>10.1} held {:>7.3} {} {:?} {}",
+            "  r{} {:<18} [{} sims] dIC {:>10.1} chi2 {:>10.1} held {:>7.3} {} {:?} {} [{}]",
             c.round,
             c.evaluations,
             c.effect,
@@ -140,7 +140,8 @@ fn main() -> Result<(), String> {
             c.heldout_rmse,
             if c.accepted { "PASS" } else { "fail" },
             c.params,
-            c.reasons.join("; ")
+            c.reasons.join("; "),
+            c.notes.join("; ")
         );
     }
     println!("after rmse_n {:?}", s.after.rmse_normalized);

@@ -15,7 +15,8 @@
 //!    (sensor offsets and gains), [`problem`] (simulation and residuals),
 //!    [`fit`] (least squares with continuation and honest statistics);
 //! 3. **candidates** — [`options`], [`heldout`] (leave-one-experiment-out
-//!    predictions), [`candidates`] (trying one effect);
+//!    predictions), [`footprint`] (an effect's largest change against the
+//!    sensors' accuracy), [`candidates`] (trying one effect);
 //! 4. **selection** — [`selection`] (the tests, the model-form floor, the
 //!    greedy search and its backward check), [`sham`] (the generic
 //!    correction a candidate must beat);
@@ -38,6 +39,7 @@ pub mod discharge;
 pub mod effects;
 pub mod experiment;
 pub mod fit;
+pub mod footprint;
 pub mod heldout;
 pub mod lsq;
 pub mod manifest;

@@ -35,6 +35,11 @@ pub struct Thresholds {
     /// A channel whose normalised RMSE after the search is above this has an
     /// unexplained remainder, reported with the phase that holds most of it.
     pub remainder_rmse: f64,
+    /// The footprint half of the practical-size test ([`crate::footprint`]):
+    /// an effect whose largest change to every recorded channel is below
+    /// this fraction of the channel's sensor accuracy is not named; 0 turns
+    /// it off.
+    pub footprint: f64,
 }
 
 impl Default for Thresholds {
@@ -48,6 +53,7 @@ impl Default for Thresholds {
             floor_min: 0.05,
             ambiguity: 0.1,
             remainder_rmse: 1.5,
+            footprint: 1.0,
         }
     }
 }
@@ -128,7 +134,9 @@ pub struct Options {
     /// candidate is also started with the calibration's form parameters
     /// (those with a prior) back at their prior centres, and each round's
     /// current model is refitted from there too, the lower penalised cost
-    /// kept. On by default since 2026-11-29: on data of the model's own
+    /// kept as the reference the candidates are judged against (their
+    /// starts stay built from the calibration before that refit). On by
+    /// default since 2026-11-29: on data of the model's own
     /// form the calibrated form parameters and sensor gains imitate part of
     /// a missing wall heat exchange or dead volume, and the effect's other
     /// starts then end at its null (docs/discrepancy.md, "Recentred starts

@@ -421,7 +421,8 @@ pub enum Grade {
     LawOutsideCatalogue,
     /// A candidate passed every statistical test but its size is below what
     /// has a practical consequence (a valve delay shorter than the switching
-    /// resolution): said, not named.
+    /// resolution, an effect whose footprint stays within every sensor's
+    /// accuracy, [`crate::footprint`]): said, not named.
     BelowPracticalSize,
     /// Something is left that no candidate explains.
     UnexplainedRemainder,

@@ -24,7 +24,12 @@
 //!    response time between a limit switch's trip and the valve's command
 //!    that the model does not describe (`Options::switch_latency`, 1 ms).
 //!    Below it the fit is the rig's switching timing as much as the
-//!    valve's; the verdict says so ("below practical size"), it is not named;
+//!    valve's; the verdict says so ("below practical size"), it is not named.
+//!    And, for every effect, its **footprint** ([`crate::footprint`]) —
+//!    the largest change it makes to a recorded channel, the rest of the
+//!    fitted model held, beyond what a shift in time within that timing
+//!    resolution explains — reaches the channel's sensor accuracy on at
+//!    least one channel (`Thresholds::footprint`);
 //! 6. **sham** ([`crate::sham`]): B's ΔIC is below that of a generic
 //!    correction with as many parameters (per-phase biases and time shifts
 //!    of the channels, shared by all experiments, with a linear refit of the
@@ -367,6 +372,11 @@ pub fn search<'a>(
         if tried.is_empty() {
             break;
         }
+        // the candidates start from the current model's optimum as it is
+        // before the round's recentred refit below (crate::candidates,
+        // "Recentred starts": that refit is the reference they are judged
+        // against, not a start)
+        let calibrated = current.fit.values.clone();
         // the current model gets the candidates' recentred start too
         if opts.recentre {
             let before = current.short.clone();
@@ -438,8 +448,10 @@ pub fn search<'a>(
             }
             _ => tried.into_iter().map(|e| (e, Vec::new())).collect(),
         };
-        let mut preps: Vec<_> =
-            tried.par_iter().map(|(e, _)| prepare(base, experiments, &current, *e, Pass { round, rescue: false }, opts)).collect();
+        let mut preps: Vec<_> = tried
+            .par_iter()
+            .map(|(e, _)| prepare(base, experiments, &current, &calibrated, *e, Pass { round, rescue: false }, opts))
+            .collect();
         let best =
             |p: &[crate::candidates::Prepared]| p.iter().map(|p| p.short_dic).filter(|d| d.is_finite()).fold(f64::INFINITY, f64::min);
         let mut best_short = best(&preps);
@@ -456,8 +468,10 @@ pub fn search<'a>(
             && current.short.is_some()
             && best_short.partial_cmp(&-RESCUE_UNLESS) != Some(std::cmp::Ordering::Less)
         {
-            let again: Vec<_> =
-                tried.par_iter().map(|(e, _)| prepare(base, experiments, &current, *e, Pass { round, rescue: true }, opts)).collect();
+            let again: Vec<_> = tried
+                .par_iter()
+                .map(|(e, _)| prepare(base, experiments, &current, &calibrated, *e, Pass { round, rescue: true }, opts))
+                .collect();
             for (i, p) in again.into_iter().enumerate() {
                 let spent = preps[i].cand.evaluations + p.cand.evaluations;
                 if p.short_dic < preps[i].short_dic || preps[i].short_dic.is_nan() {

@@ -20,6 +20,7 @@ const STAGES: &[(&str, usize)] = &[
     ("fit", 2),
     ("options", 3),
     ("heldout", 3),
+    ("footprint", 3),
     ("candidates", 3),
     ("selection", 4),
     ("sham", 4),
