@@ -135,11 +135,12 @@ fn merge(all: impl Iterator<Item = Footprint>) -> Vec<Footprint> {
 }
 
 /// Why an effect of these footprints is below practical size: every
-/// channel's ratio is below `fraction` (`None` when one reaches it, when no
-/// channel has an accuracy, or when `fraction` is 0 — the test switched
-/// off).
+/// channel's ratio is below `fraction` (`None` when one reaches it or is
+/// not a number, when no channel has an accuracy, or when `fraction` is 0
+/// — the test switched off).
 pub fn within_accuracy(footprints: &[Footprint], fraction: f64, tau: f64) -> Option<String> {
-    if fraction <= 0.0 || footprints.is_empty() || footprints.iter().any(|f| f.ratio >= fraction) {
+    // a footprint that could not be measured (NaN) never counts as small
+    if fraction <= 0.0 || footprints.is_empty() || footprints.iter().any(|f| f.ratio >= fraction || f.ratio.is_nan()) {
         return None;
     }
     let of = if fraction == 1.0 { "its".to_string() } else { format!("{fraction} of its") };
@@ -260,5 +261,6 @@ mod tests {
         // fraction 0 switches the test off; no channel with an accuracy: nothing to judge
         assert_eq!(within_accuracy(&small, 0.0, 1e-3), None);
         assert_eq!(within_accuracy(&[], 1.0, 1e-3), None);
+        assert_eq!(within_accuracy(&[fp("rod.p", 0.16), fp("piston.x", f64::NAN)], 1.0, 1e-3), None);
     }
 }
